@@ -1,0 +1,337 @@
+"""Equations of motion of Frohlich (2004), fused for speed: the right-hand side of the ODE.
+
+State vector ``y`` (SI):
+
+====  ==========================================================
+0, 1  x, y of the geometric center (m); the center stays at z = 0
+2, 3  vx, vy of the geometric center (m/s)
+4..7  unit quaternion (w, x, y, z), body -> lane frame
+8..10 angular velocity omega in the lane frame (rad/s)
+====  ==========================================================
+
+Parameters ``par`` (see :func:`pack_params`): ball radius R, gravity g, the principal moments per
+unit mass k_i^2 (m^2), r_Delta in the body frame (m), and two flags that switch off terms that are
+exactly zero for the scene (scalar inertia: no I_dev / tau_dev; zero offset: no r_Delta terms).
+
+Sliding (paper Eqs. (6), (A8)-(A12)): with rho = r_Delta + R_con and mu_vec = (mu u_x, mu u_y, 1)
+(u the unit slip direction), the torque equation per unit mass is
+
+    (I - (rho x mu_vec) e_a^T) alpha = (I_dev w) x w + (g + a_w) rho x mu_vec,
+
+e_a = z x r_Delta so that a_alpha = e_a . alpha, a_w = [(w x r_Delta) x w]_z. This is the sum of the
+paper's terms: I_Delta^s + I_DeltaDelta^s = -(rho x mu_vec) e_a^T and
+tau_fric + tau_Delta^s + tau_DeltaDelta^s = (g + a_w) rho x mu_vec. The normal force per unit mass
+is n = g + a_alpha + a_w and the center accelerates at n mu u + [alpha x r_Delta + w x (w x r_Delta)]_h.
+
+Rolling (Eqs. (7), (B1)-(B7)): (I + |rho|^2 1 - rho rho^T) alpha = (I_dev w) x w + tau_Delta^r
++ tau_DeltaDelta^r, the center accelerates at R_con x alpha and the contact force per unit mass is
+F/M = g z + rho x alpha + (w x r_Delta) x w (the paper's Eq. (B3) prints -g n: a sign slip).
+
+``bowlrec.core.terms`` computes every term separately; tests check both against a direct
+Newton-Euler solve.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from .vec import cross, quat_matrix, rotate, solve3, world_inertia
+
+N_STATE = 11
+PHASE_SLIDE = 0
+PHASE_ROLL = 1
+#: sliding right after the slip restarted from zero: the friction acts along the slaved direction
+#: (the direction along which the slip grows along itself) until the slip is established
+PHASE_LAYER = 2
+
+P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET = range(10)
+N_PAR = 10
+
+
+def pack_params(
+    radius_m: float,
+    g_mps2: float,
+    inertia_per_mass_m2: np.ndarray,
+    r_delta_body_m: np.ndarray,
+) -> np.ndarray:
+    """Parameter vector for the kernels; sets the scalar-inertia and offset flags exactly."""
+    k = np.asarray(inertia_per_mass_m2, dtype=np.float64)
+    rd = np.asarray(r_delta_body_m, dtype=np.float64)
+    scalar = 1.0 if (k[0] == k[1] == k[2]) else 0.0
+    offset = 0.0 if not np.any(rd != 0.0) else 1.0
+    return np.array(
+        [radius_m, g_mps2, k[0], k[1], k[2], rd[0], rd[1], rd[2], scalar, offset],
+        dtype=np.float64,
+    )
+
+
+@njit(cache=True)
+def ball_frame(y, par):  # type: ignore[no-untyped-def]
+    """World inertia per unit mass (6-tuple) and r_Delta in the lane frame at state y."""
+    if par[P_SCALAR] != 0.0 and par[P_OFFSET] == 0.0:
+        k = par[P_K1]
+        return (k, k, k, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    m = quat_matrix(y[4], y[5], y[6], y[7])
+    if par[P_SCALAR] != 0.0:
+        k = par[P_K1]
+        iw = (k, k, k, 0.0, 0.0, 0.0)
+    else:
+        iw = world_inertia(m, par[P_K1], par[P_K2], par[P_K3])
+    if par[P_OFFSET] != 0.0:
+        rd = rotate(m, par[P_RDX], par[P_RDY], par[P_RDZ])
+    else:
+        rd = (0.0, 0.0, 0.0)
+    return iw, rd
+
+
+@njit(cache=True)
+def _dev_torque(iw, wx, wy, wz, scalar):  # type: ignore[no-untyped-def]
+    """tau_dev = (I_dev w) x w = (I w) x w (the isotropic part is parallel to w)."""
+    if scalar:
+        return 0.0, 0.0, 0.0
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    lx = ixx * wx + ixy * wy + ixz * wz
+    ly = ixy * wx + iyy * wy + iyz * wz
+    lz = ixz * wx + iyz * wy + izz * wz
+    return cross(lx, ly, lz, wx, wy, wz)
+
+
+@njit(cache=True)
+def slide_accel(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """Sliding with friction along the unit direction (ux, uy) of the slip.
+
+    Returns (ax, ay, alpha_x, alpha_y, alpha_z, n): the acceleration of the geometric center
+    (m/s^2), the angular acceleration (rad/s^2) and the normal force per unit mass (m/s^2).
+    """
+    R = par[P_R]
+    g = par[P_G]
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    iw, rd = ball_frame(y, par)
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    rdx, rdy, rdz = rd
+    mx = mu * ux
+    my = mu * uy
+    tdx, tdy, tdz = _dev_torque(iw, wx, wy, wz, par[P_SCALAR] != 0.0)
+    # c = rho x mu_vec with rho = r_Delta + R_con = (rdx, rdy, rdz - R), mu_vec = (mx, my, 1)
+    cx, cy, cz = cross(rdx, rdy, rdz - R, mx, my, 1.0)
+    if par[P_OFFSET] == 0.0:
+        aw = 0.0
+        ax_, ay_, az_ = solve3(
+            ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz,
+            tdx + g * cx, tdy + g * cy, tdz + g * cz,
+        )  # fmt: skip
+        n = g
+        return n * mx, n * my, ax_, ay_, az_, n
+    w2 = wx * wx + wy * wy + wz * wz
+    wr = wx * rdx + wy * rdy + wz * rdz
+    aw = w2 * rdz - wz * wr
+    # e_a = z x r_Delta = (-rdy, rdx, 0); A = I - c e_a^T
+    ex = -rdy
+    ey = rdx
+    k = g + aw
+    ax_, ay_, az_ = solve3(
+        ixx - cx * ex, ixy - cx * ey, ixz,
+        ixy - cy * ex, iyy - cy * ey, iyz,
+        ixz - cz * ex, iyz - cz * ey, izz,
+        tdx + k * cx, tdy + k * cy, tdz + k * cz,
+    )  # fmt: skip
+    n = k + ex * ax_ + ey * ay_
+    # acceleration of the center: friction + (alpha x r_Delta + w x (w x r_Delta))_h
+    px, py, _ = cross(ax_, ay_, az_, rdx, rdy, rdz)
+    # w x (w x r) = w (w.r) - r |w|^2
+    accx = n * mx + px + wx * wr - rdx * w2
+    accy = n * my + py + wy * wr - rdy * w2
+    return accx, accy, ax_, ay_, az_, n
+
+
+@njit(cache=True)
+def roll_accel(y, par):  # type: ignore[no-untyped-def]
+    """Rolling without slipping.
+
+    Returns (ax, ay, alpha_x, alpha_y, alpha_z, fx, fy, n): center acceleration (m/s^2), angular
+    acceleration (rad/s^2), the horizontal contact (friction) force per unit mass (m/s^2) and the
+    normal force per unit mass (m/s^2).
+    """
+    R = par[P_R]
+    g = par[P_G]
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    iw, rd = ball_frame(y, par)
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    rdx, rdy, rdz = rd
+    tx, ty, tz = _dev_torque(iw, wx, wy, wz, par[P_SCALAR] != 0.0)
+    pz = rdz - R  # rho = (rdx, rdy, pz)
+    if par[P_OFFSET] != 0.0:
+        w2 = wx * wx + wy * wy + wz * wz
+        wr = wx * rdx + wy * rdy + wz * rdz
+        # tau_Delta^r = g r x z + R [w^2 r x z + (w.r) z x w];  r x z = (ry, -rx, 0), z x w = (-wy, wx, 0)
+        tx += g * rdy + R * (w2 * rdy - wr * wy)
+        ty += -g * rdx + R * (-w2 * rdx + wr * wx)
+        # tau_DeltaDelta^r = (w.r) w x r
+        qx, qy, qz = cross(wx, wy, wz, rdx, rdy, rdz)
+        tx += wr * qx
+        ty += wr * qy
+        tz += wr * qz
+    else:
+        w2 = 0.0
+        wr = 0.0
+    p2 = rdx * rdx + rdy * rdy + pz * pz
+    ax_, ay_, az_ = solve3(
+        ixx + p2 - rdx * rdx, ixy - rdx * rdy, ixz - rdx * pz,
+        ixy - rdx * rdy, iyy + p2 - rdy * rdy, iyz - rdy * pz,
+        ixz - rdx * pz, iyz - rdy * pz, izz + p2 - pz * pz,
+        tx, ty, tz,
+    )  # fmt: skip
+    # F/M = g z + rho x alpha + (w x r) x w, with (w x r) x w = r |w|^2 - w (w.r)
+    hx, hy, hz = cross(rdx, rdy, pz, ax_, ay_, az_)
+    fx = hx + rdx * w2 - wx * wr
+    fy = hy + rdy * w2 - wy * wr
+    n = g + hz + rdz * w2 - wz * wr
+    # a_cb = R_con x alpha = (R alpha_y, -R alpha_x, 0)
+    return R * ay_, -R * ax_, ax_, ay_, az_, fx, fy, n
+
+
+@njit(cache=True)
+def slip(y, par):  # type: ignore[no-untyped-def]
+    """Slip velocity s = R_con x w - v_cb (m/s): the floor's velocity relative to the contact point."""
+    R = par[P_R]
+    return R * y[9] - y[2], -R * y[8] - y[3]
+
+
+@njit(cache=True)
+def slip_rate(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """ds/dt (m/s^2) while sliding with friction along (ux, uy)."""
+    ax, ay, alx, aly, _alz, _n = slide_accel(y, par, mu, ux, uy)
+    R = par[P_R]
+    return R * aly - ax, -R * alx - ay
+
+
+@njit(cache=True)
+def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """Unit friction direction u with ds/dt(u) parallel to +u (Newton on the angle from (ux, uy)).
+
+    Right after a rolling ball starts slipping, the slip is tiny and its direction relaxes toward
+    this direction at a rate ~ mu g (1 + R^2/k^2) / |s| (stiff). In that boundary layer bowlrec lets
+    friction act along this slaved direction (the limit |s| -> 0 of the exact dynamics) instead of
+    integrating the stiff relaxation; see ``bowlrec.core.integrator``.
+    """
+    phi = math.atan2(uy, ux)
+    for _ in range(8):
+        cx = math.cos(phi)
+        cy = math.sin(phi)
+        sx, sy = slip_rate(y, par, mu, cx, cy)
+        h0 = cx * sy - cy * sx
+        if abs(h0) <= 1e-13 * (abs(sx) + abs(sy) + 1e-300):
+            break
+        d = 1e-7
+        c2 = math.cos(phi + d)
+        s2 = math.sin(phi + d)
+        tx, ty = slip_rate(y, par, mu, c2, s2)
+        h1 = c2 * ty - s2 * tx
+        dh = (h1 - h0) / d
+        if dh == 0.0:
+            break
+        step = -h0 / dh
+        if step > 0.5:
+            step = 0.5
+        elif step < -0.5:
+            step = -0.5
+        phi += step
+        if abs(step) < 1e-14:
+            break
+    return math.cos(phi), math.sin(phi)
+
+
+@njit(cache=True)
+def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-untyped-def]
+    """Unit direction of the friction force for a sliding phase.
+
+    PHASE_SLIDE: along the slip s, continued through s = 0 with the sign that keeps it on the side
+    of the reference direction (so the right-hand side stays smooth across the slide->roll root,
+    which is located by the event s . u_ref = 0). PHASE_LAYER: the slaved direction.
+    """
+    if phase == PHASE_LAYER:
+        return slaved_direction(y, par, mu, ux_ref, uy_ref)
+    sx, sy = slip(y, par)
+    s = math.sqrt(sx * sx + sy * sy)
+    if s == 0.0:
+        return ux_ref, uy_ref
+    ux = sx / s
+    uy = sy / s
+    if ux * ux_ref + uy * uy_ref < 0.0:
+        return -ux, -uy
+    return ux, uy
+
+
+@njit(cache=True)
+def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyped-def]
+    """Write dy/dt into ``dy``; return (n, margin, ux, uy).
+
+    n is the normal force per unit mass (m/s^2). margin is, while rolling, the friction reserve
+    mu n - |f| (m/s^2; negative means the ball must start sliding) and, while sliding, |s| (m/s).
+    (ux, uy) is the friction direction used (zeros while rolling). ``orient`` False skips the
+    quaternion (its derivative is set to zero) when nothing depends on the orientation.
+    """
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    dy[0] = y[2]
+    dy[1] = y[3]
+    if phase == PHASE_ROLL:
+        ax, ay, alx, aly, alz, fx, fy, n = roll_accel(y, par)
+        margin = mu * n - math.sqrt(fx * fx + fy * fy)
+        ux = 0.0
+        uy = 0.0
+    else:
+        ux, uy = friction_direction(y, par, phase, mu, ux_ref, uy_ref)
+        ax, ay, alx, aly, alz, n = slide_accel(y, par, mu, ux, uy)
+        sx, sy = slip(y, par)
+        margin = math.sqrt(sx * sx + sy * sy)
+    dy[2] = ax
+    dy[3] = ay
+    if orient:
+        qw = y[4]
+        qx = y[5]
+        qy = y[6]
+        qz = y[7]
+        # dq/dt = 1/2 (0, w) (x) q with w in the lane frame
+        dy[4] = -0.5 * (wx * qx + wy * qy + wz * qz)
+        dy[5] = 0.5 * (qw * wx + wy * qz - wz * qy)
+        dy[6] = 0.5 * (qw * wy + wz * qx - wx * qz)
+        dy[7] = 0.5 * (qw * wz + wx * qy - wy * qx)
+    else:
+        dy[4] = 0.0
+        dy[5] = 0.0
+        dy[6] = 0.0
+        dy[7] = 0.0
+    dy[8] = alx
+    dy[9] = aly
+    dy[10] = alz
+    return n, margin, ux, uy
+
+
+@njit(cache=True)
+def energy_per_mass(y, par):  # type: ignore[no-untyped-def]
+    """Total mechanical energy per unit mass (J/kg): translation of the center of mass, rotation
+    about it, and gravity with z = 0 at the geometric center."""
+    iw, rd = ball_frame(y, par)
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    rdx, rdy, rdz = rd
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    # v_com = v_cb - w x r_Delta
+    cx, cy, cz = cross(wx, wy, wz, rdx, rdy, rdz)
+    vx = y[2] - cx
+    vy = y[3] - cy
+    vz = -cz
+    lx = ixx * wx + ixy * wy + ixz * wz
+    ly = ixy * wx + iyy * wy + iyz * wz
+    lz = ixz * wx + iyz * wy + izz * wz
+    return 0.5 * (vx * vx + vy * vy + vz * vz) + 0.5 * (wx * lx + wy * ly + wz * lz) - par[P_G] * rdz

@@ -1,0 +1,96 @@
+"""The resolved, unit-free description of one delivery that the compiled kernels consume.
+
+Everything here is SI (m, s, kg, rad) and plain floats / NumPy arrays. ``bowlrec.spec`` builds a
+:class:`Plan` from a validated :class:`~bowlrec.spec.Scene`; nothing in ``bowlrec.core`` knows
+about Pydantic, units or files.
+
+Conventions (the paper's, Frohlich 2004):
+
+* lane frame: x from the foul line toward the pins, y from the right gutter toward the left,
+  z up; the ball's geometric center moves in the plane z = 0 and the lane surface is z = -R;
+* body frame: the ball's principal axes; ``q0`` (w, x, y, z) rotates body vectors into the lane
+  frame at release;
+* ``r_delta_body``: the paper's r_Delta, the vector FROM the center of mass TO the geometric
+  center, in the body frame (so a center of mass displaced toward +a has r_Delta along -a);
+* the delivery's velocity is that of the geometric center.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+# Recording modes (``Plan.record_mode``).
+RECORD_SUMMARY = 0  #: keep no samples, only events and the summary
+RECORD_STEPS = 1  #: one sample at every accepted integrator step (and every event)
+RECORD_RATE = 2  #: samples at a fixed rate from the dense output (and every event)
+
+# Slide-to-roll criteria (``Plan.slide_to_roll``).
+SLIDE_TO_ROLL_EXACT = 0  #: rolling starts where the slip is exactly zero (root of the slip)
+SLIDE_TO_ROLL_THRESHOLD = 1  #: the paper's rule: rolling starts once |slip| < slip_threshold
+
+
+@dataclass(frozen=True)
+class Plan:
+    """One delivery in plain SI numbers.
+
+    Attributes are documented with their units; arrays are float64.
+    """
+
+    mass_kg: float
+    radius_m: float
+    #: principal moments of inertia per unit mass, k_i**2 (m^2), about body axes 1, 2, 3
+    inertia_per_mass_m2: NDArray[np.float64]
+    #: r_Delta in the body frame (m): from the center of mass to the geometric center
+    r_delta_body_m: NDArray[np.float64]
+    #: orientation at release, unit quaternion (w, x, y, z), body -> lane frame
+    q0: NDArray[np.float64]
+    #: initial position of the geometric center in the lane plane (m)
+    position0_m: NDArray[np.float64]
+    #: initial velocity of the geometric center in the lane plane (m/s)
+    velocity0_mps: NDArray[np.float64]
+    #: initial angular velocity in the lane frame (rad/s)
+    omega0_radps: NDArray[np.float64]
+    lane_length_m: float
+    lane_width_m: float
+    #: friction grid: sorted x break points (m); cell i spans [x_edges[i-1], x_edges[i])
+    friction_x_edges_m: NDArray[np.float64]
+    #: friction grid: sorted y break points (m)
+    friction_y_edges_m: NDArray[np.float64]
+    #: friction coefficient per cell, shape (len(x_edges) + 1, len(y_edges) + 1)
+    friction_mu: NDArray[np.float64]
+    g_mps2: float = 9.81
+    #: relative tolerance of the integrator (dimensionless)
+    rtol: float = 1e-9
+    record_mode: int = RECORD_STEPS
+    #: sampling interval for RECORD_RATE (s)
+    record_dt_s: float = 1e-3
+    #: whether per-term torques are derived for every sample
+    record_terms: bool = False
+    slide_to_roll: int = SLIDE_TO_ROLL_EXACT
+    #: slip speed below which the paper's rule declares rolling (m/s)
+    slip_threshold_mps: float = 0.01
+    #: hard limit on simulated time (s)
+    max_time_s: float = 60.0
+    #: hard limit on accepted integrator steps
+    max_steps: int = 2_000_000
+    #: free-form labels carried to the result (not used by the physics)
+    labels: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def scalar_inertia(self) -> bool:
+        """True when all three principal moments are equal (I_dev is exactly zero)."""
+        k = self.inertia_per_mass_m2
+        return bool(k[0] == k[1] == k[2])
+
+    @property
+    def has_offset(self) -> bool:
+        """True when the center of mass is not at the geometric center."""
+        return bool(np.any(self.r_delta_body_m != 0.0))
+
+    @property
+    def constant_friction(self) -> bool:
+        """True when the friction map has a single value (no zone events can happen)."""
+        return bool(np.all(self.friction_mu == self.friction_mu.flat[0]))

@@ -1,0 +1,178 @@
+"""Run one :class:`~bowlrec.core.plan.Plan` through the compiled kernel into a Trajectory."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .derive import derive_samples
+from .dynamics import N_STATE, pack_params
+from .integrator import (
+    COL_MU,
+    COL_PHASE,
+    COL_STATE,
+    COL_T,
+    EVENT_SLIDE_TO_ROLL,
+    STATUS_AIRBORNE,
+    STATUS_PINS,
+    simulate_kernel,
+)
+from .plan import RECORD_SUMMARY, Plan
+from .terms import INERTIA_TERMS, TORQUE_TERMS
+from .trajectory import EVENT_KINDS, OUTCOMES, Event, Summary, Trajectory
+
+
+def initial_state(plan: Plan) -> np.ndarray:
+    """The 11-component state vector at release (see ``bowlrec.core.dynamics``)."""
+    y = np.empty(N_STATE)
+    y[0:2] = plan.position0_m
+    y[2:4] = plan.velocity0_mps
+    q = np.asarray(plan.q0, dtype=np.float64)
+    y[4:8] = q / np.linalg.norm(q)
+    y[8:11] = plan.omega0_radps
+    return y
+
+
+def kernel_params(plan: Plan) -> np.ndarray:
+    return pack_params(plan.radius_m, plan.g_mps2, plan.inertia_per_mass_m2, plan.r_delta_body_m)
+
+
+def needs_orientation(plan: Plan) -> bool:
+    """The quaternion is integrated only when the motion or the output depends on it."""
+    return not (plan.scalar_inertia and not plan.has_offset and plan.record_mode == RECORD_SUMMARY)
+
+
+def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
+    """Call the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``)."""
+    return simulate_kernel(
+        kernel_params(plan),
+        initial_state(plan),
+        np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
+        np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
+        np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+        float(plan.lane_length_m),
+        float(plan.lane_width_m),
+        float(plan.rtol),
+        int(plan.record_mode),
+        float(plan.record_dt_s),
+        int(plan.slide_to_roll),
+        float(plan.slip_threshold_mps),
+        float(plan.max_time_s),
+        int(plan.max_steps),
+        needs_orientation(plan),
+    )
+
+
+def solve(plan: Plan) -> Trajectory:
+    """Simulate one delivery from release to its outcome (pins, gutter, stop, loss of contact)."""
+    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = run_kernel(plan)
+    rec = rec[:nrec]
+    ev = ev[:nev]
+    par = kernel_params(plan)
+    mass = plan.mass_kg
+    events = [
+        Event(
+            t_s=float(row[0]),
+            kind=EVENT_KINDS[int(row[1])],
+            x_m=float(row[2]),
+            y_m=float(row[3]),
+            mu=float(row[4]),
+            phase="rolling" if row[5] == 1.0 else "sliding",
+        )
+        for row in ev
+    ]
+    summary = summarize(plan, int(status), float(t_end), y_end, ev, int(nsteps), int(nfev))
+    normal, friction, slips, energy, alpha, inertia_alpha, torques = derive_samples(
+        rec, par, bool(plan.record_terms)
+    )
+    n = rec.shape[0]
+    position = np.zeros((n, 3))
+    position[:, :2] = rec[:, COL_STATE : COL_STATE + 2]
+    velocity = np.zeros((n, 3))
+    velocity[:, :2] = rec[:, COL_STATE + 2 : COL_STATE + 4]
+    slip3 = np.zeros((n, 3))
+    slip3[:, :2] = slips
+    fric3 = np.zeros((n, 3))
+    fric3[:, :2] = friction * mass
+    torque_arrays: dict[str, np.ndarray] = {}
+    if plan.record_terms:
+        for j, name in enumerate(INERTIA_TERMS):
+            torque_arrays[name] = inertia_alpha[:, j, :] * mass
+        for j, name in enumerate(TORQUE_TERMS):
+            torque_arrays[name] = torques[:, j, :] * mass
+    return Trajectory(
+        t_s=rec[:, COL_T].copy(),
+        position_m=position,
+        velocity_mps=velocity,
+        quaternion_wxyz=rec[:, COL_STATE + 4 : COL_STATE + 8].copy(),
+        omega_radps=rec[:, COL_STATE + 8 : COL_STATE + 11].copy(),
+        phase=rec[:, COL_PHASE].astype(np.int8),
+        mu=rec[:, COL_MU].copy(),
+        normal_force_N=normal * mass,
+        friction_force_N=fric3,
+        slip_mps=slip3,
+        energy_J=energy * mass,
+        alpha_radps2=alpha,
+        events=events,
+        summary=summary,
+        torques_Nm=torque_arrays,
+    )
+
+
+def summarize(
+    plan: Plan,
+    status: int,
+    t_end: float,
+    y_end: np.ndarray,
+    ev: np.ndarray,
+    nsteps: int,
+    nfev: int,
+) -> Summary:
+    """Table III metrics from the final state and the event table."""
+    outcome = OUTCOMES.get(status, "error")
+    slide = None
+    for row in ev:
+        if int(row[1]) == EVENT_SLIDE_TO_ROLL:
+            slide = float(row[2])
+            break
+    x0, y0 = (float(v) for v in plan.position0_m)
+    vx0, vy0 = (float(v) for v in plan.velocity0_mps)
+    hook = pocket = None
+    if status == STATUS_PINS:
+        hook = float(y_end[1] - (y0 + (y_end[0] - x0) * vy0 / vx0))
+        pocket = math.degrees(math.atan2(y_end[3], y_end[2]))
+    speed = math.hypot(y_end[2], y_end[3])
+    rev = math.sqrt(y_end[8] ** 2 + y_end[9] ** 2 + y_end[10] ** 2) * 60.0 / (2.0 * math.pi)
+    messages = {
+        "pins": "reached the pins",
+        "gutter": f"the center crossed a lane edge at x = {y_end[0]:.3f} m",
+        "stopped": f"the ball stopped moving toward the pins at x = {y_end[0]:.3f} m",
+        "airborne": (
+            f"the normal force reached zero at t = {t_end:.4f} s, x = {y_end[0]:.3f} m: the ball "
+            "would leave the lane (omega^2 |offset| exceeds g); the model assumes contact"
+        ),
+        "max_time": f"no outcome within max_time_s = {plan.max_time_s} s",
+        "max_steps": f"no outcome within {plan.max_steps} integrator steps",
+        "stalled": "the integrator stalled (step size underflow or endless phase switching)",
+    }
+    if status == STATUS_AIRBORNE and t_end == 0.0:
+        messages["airborne"] = (
+            "the normal force is not positive at release: the ball would leave the lane "
+            "(omega^2 |offset| exceeds g); the model assumes contact"
+        )
+    return Summary(
+        outcome=outcome,
+        message=messages.get(outcome, outcome),
+        slide_m=slide,
+        hook_m=hook,
+        pocket_deg=pocket,
+        time_s=float(t_end),
+        x_end_m=float(y_end[0]),
+        y_end_m=float(y_end[1]),
+        speed_end_mps=speed,
+        rev_rate_end_rpm=rev,
+        n_steps=nsteps,
+        n_rhs=nfev,
+        n_events=int(ev.shape[0]),
+    )

@@ -1,0 +1,146 @@
+"""The result of one delivery: samples (struct of arrays), events and the summary. Plain NumPy."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+OUTCOMES = {
+    1: "pins",
+    2: "gutter",
+    3: "stopped",
+    4: "airborne",
+    5: "max_time",
+    6: "max_steps",
+    7: "stalled",
+}
+
+EVENT_KINDS = {
+    1: "slide_to_roll",
+    2: "roll_to_slide",
+    3: "zone",
+    4: "pins",
+    5: "gutter",
+    6: "stopped",
+    7: "airborne",
+    8: "max_time",
+    9: "slip_reversal",
+}
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something that happened at one instant: a phase change, a zone crossing or the end."""
+
+    t_s: float
+    kind: str
+    x_m: float
+    y_m: float
+    #: friction coefficient under the ball after the event
+    mu: float
+    #: "rolling" or "sliding" after the event
+    phase: str
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Table III quantities and the run's bookkeeping.
+
+    hook_m: leftward (+y) deflection at the pins relative to the straight line along the initial
+    velocity; pocket_deg: angle of the velocity to the x axis at the pins (positive toward the
+    left); slide_m: x where rolling first starts (None if the ball never rolls). hook_m and
+    pocket_deg are None unless the outcome is "pins".
+    """
+
+    outcome: str
+    message: str
+    slide_m: float | None
+    hook_m: float | None
+    pocket_deg: float | None
+    time_s: float
+    x_end_m: float
+    y_end_m: float
+    speed_end_mps: float
+    rev_rate_end_rpm: float
+    n_steps: int
+    n_rhs: int
+    n_events: int
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class Trajectory:
+    """Samples of one delivery (lane frame, SI units) plus its events and summary.
+
+    position_m is the geometric center (z = 0 is the center plane; the lane surface is z = -R),
+    velocity_mps its velocity, quaternion_wxyz the body->lane rotation, omega_radps the angular
+    velocity in the lane frame, phase 0 sliding / 1 rolling, mu the friction under the ball,
+    normal_force_N and friction_force_N the contact force, slip_mps the slip R_con x w - v,
+    energy_J the mechanical energy. torques_Nm maps each term of Eqs. (6)/(7) to an (n, 3) array
+    when per-term recording was asked for (inertia terms as I_k alpha, in N m).
+    """
+
+    t_s: NDArray[np.float64]
+    position_m: NDArray[np.float64]
+    velocity_mps: NDArray[np.float64]
+    quaternion_wxyz: NDArray[np.float64]
+    omega_radps: NDArray[np.float64]
+    phase: NDArray[np.int8]
+    mu: NDArray[np.float64]
+    normal_force_N: NDArray[np.float64]
+    friction_force_N: NDArray[np.float64]
+    slip_mps: NDArray[np.float64]
+    energy_J: NDArray[np.float64]
+    alpha_radps2: NDArray[np.float64]
+    events: list[Event]
+    summary: Summary
+    torques_Nm: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t_s.shape[0])
+
+    @property
+    def speed_mps(self) -> NDArray[np.float64]:
+        return np.asarray(np.linalg.norm(self.velocity_mps, axis=1))
+
+    @property
+    def rev_rate_rpm(self) -> NDArray[np.float64]:
+        return np.asarray(np.linalg.norm(self.omega_radps, axis=1) * 60.0 / (2.0 * math.pi))
+
+    def arrays(self) -> dict[str, NDArray[Any]]:
+        """All per-sample arrays by name (torques as ``torque_<term>``)."""
+        out: dict[str, NDArray[Any]] = {
+            "t_s": self.t_s,
+            "position_m": self.position_m,
+            "velocity_mps": self.velocity_mps,
+            "quaternion_wxyz": self.quaternion_wxyz,
+            "omega_radps": self.omega_radps,
+            "phase": self.phase,
+            "mu": self.mu,
+            "normal_force_N": self.normal_force_N,
+            "friction_force_N": self.friction_force_N,
+            "slip_mps": self.slip_mps,
+            "energy_J": self.energy_J,
+            "alpha_radps2": self.alpha_radps2,
+        }
+        for name, arr in self.torques_Nm.items():
+            out[f"torque_{name}"] = arr
+        return out
+
+    def save_npz(self, path: str | Path) -> Path:
+        """Save samples, events and summary to a compressed ``.npz`` (events/summary as JSON)."""
+        import json
+
+        path = Path(path)
+        events = json.dumps([asdict(e) for e in self.events])
+        summary = json.dumps(self.summary.to_dict())
+        np.savez_compressed(path, events_json=events, summary_json=summary, **self.arrays())
+        return path

@@ -1,0 +1,37 @@
+"""Reading and writing scene files (.json, .yaml, .yml)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from .scene import Scene
+
+__all__ = ["dump_scene_json", "load_scene", "read_mapping"]
+
+_YAML_SUFFIXES = {".yaml", ".yml"}
+
+
+def read_mapping(path: str | Path) -> Any:
+    """The parsed content of a JSON or YAML file (not validated)."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    text = p.read_text(encoding="utf-8")
+    if suffix == ".json":
+        return json.loads(text)
+    if suffix in _YAML_SUFFIXES:
+        import yaml
+
+        return yaml.safe_load(text)
+    raise ValueError(f"{p}: unsupported scene file type {suffix!r} (use .json, .yaml or .yml)")
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Load and validate a scene file; raises ``pydantic.ValidationError`` on invalid content."""
+    return Scene.model_validate(read_mapping(path))
+
+
+def dump_scene_json(scene: Scene) -> str:
+    """Canonical JSON text of a scene: indent 2, sorted keys, trailing newline."""
+    return json.dumps(scene.model_dump(mode="json"), indent=2, sort_keys=True) + "\n"

@@ -1,0 +1,80 @@
+"""Scene (validated, SI) -> Plan (plain numbers for the compiled kernels)."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowlrec.core.plan import (
+    RECORD_RATE,
+    RECORD_STEPS,
+    RECORD_SUMMARY,
+    SLIDE_TO_ROLL_EXACT,
+    SLIDE_TO_ROLL_THRESHOLD,
+    Plan,
+)
+
+from .friction_grid import build_friction_grid
+from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quaternion_to_matrix
+
+if TYPE_CHECKING:
+    from .ball import Ball
+    from .scene import Scene
+
+__all__ = ["initial_rotation", "resolve_scene"]
+
+_RECORD_MODES = {"steps": RECORD_STEPS, "rate": RECORD_RATE, "summary": RECORD_SUMMARY}
+_SLIDE_TO_ROLL = {"exact": SLIDE_TO_ROLL_EXACT, "threshold": SLIDE_TO_ROLL_THRESHOLD}
+
+
+def initial_rotation(ball: Ball) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(q0, R0): the release orientation as a unit quaternion (w, x, y, z) with w >= 0 and as
+    the rotation matrix (body -> lane) whose columns are the principal axes 1, 2, 3."""
+    if ball.orientation_wxyz is not None:
+        q = normalized(ball.orientation_wxyz)
+        q = -q if q[0] < 0.0 else q
+        return q, quaternion_to_matrix(q)
+    r = frame_from_axes(ball.axis_1, ball.axis_2)
+    return matrix_to_quaternion(r), r
+
+
+def resolve_scene(scene: Scene) -> Plan:
+    """The :class:`~bowlrec.core.plan.Plan` of a scene (all SI; see Plan for the conventions).
+
+    ``r_delta_body_m`` is the paper's r_Delta = -com_offset_m, expressed in the body frame.
+    """
+    ball, lane, delivery, options = scene.ball, scene.lane, scene.delivery, scene.options
+    q0, r0 = initial_rotation(ball)
+    com_offset = np.asarray(ball.com_offset_m, dtype=np.float64)
+    r_delta_body = -(r0.T @ com_offset) + 0.0  # + 0.0 turns -0.0 into 0.0
+    position0 = (0.0, 0.5 * lane.width_m) if delivery.position_m is None else delivery.position_m
+    angle = math.radians(delivery.takeoff_angle_deg)
+    velocity0 = (delivery.speed_mps * math.cos(angle), delivery.speed_mps * math.sin(angle))
+    grid = build_friction_grid(lane.friction, lane.width_m)
+    return Plan(
+        mass_kg=float(ball.mass_kg),
+        radius_m=float(ball.radius_m),
+        inertia_per_mass_m2=np.asarray(ball.rg_m, dtype=np.float64) ** 2,
+        r_delta_body_m=r_delta_body,
+        q0=q0,
+        position0_m=np.asarray(position0, dtype=np.float64),
+        velocity0_mps=np.asarray(velocity0, dtype=np.float64),
+        omega0_radps=np.asarray(delivery.omega_radps, dtype=np.float64),
+        lane_length_m=float(lane.length_m),
+        lane_width_m=float(lane.width_m),
+        friction_x_edges_m=grid.x_edges_m,
+        friction_y_edges_m=grid.y_edges_m,
+        friction_mu=grid.mu,
+        g_mps2=float(options.g_mps2),
+        rtol=float(options.rtol),
+        record_mode=_RECORD_MODES[options.record],
+        record_dt_s=float(options.record_dt_s),
+        record_terms=bool(options.record_terms),
+        slide_to_roll=_SLIDE_TO_ROLL[options.slide_to_roll],
+        slip_threshold_mps=float(options.slip_threshold_mps),
+        max_time_s=float(options.max_time_s),
+        labels={"scene": scene.name},
+    )
