@@ -125,8 +125,8 @@ _COMBO = (
 TABLE_III: tuple[PaperCase, ...] = (
     _row(1, 0.0, (6.7,) * 3, _X, _NO, _FORWARD, 0.12, (8.10, 0, 0.0),
          f"{_FWD}; I scalar, RG = 6.7 cm; offset 0"),
-    _row(2, 0.0, (6.7,) * 3, _X, (0.0, 0.0, 0.001), _FORWARD, 0.12, (8.16, 0, 0.0),
-         f"{_FWD}; I scalar, RG = 6.7 cm; offset 1 mm perpendicular to omega0 (up)"),
+    _row(2, 0.0, (6.7,) * 3, _X, (0.001, 0.0, 0.0), _FORWARD, 0.12, (8.16, 0, 0.0),
+         f"{_FWD}; I scalar, RG = 6.7 cm; offset 1 mm perpendicular to omega0 (toward the pins)"),
     _row(3, 0.0, (6.7, 6.9, 6.9), _X, _NO, _FORWARD, 0.12, (8.41, 0, 0.0),
          f"{_FWD}; I nonscalar, RG = 6.7, 6.9, 6.9 cm, a_long perpendicular to omega0; offset 0"),
     _row(4, 0.0, (6.7,) * 3, _X, (0.0, 0.001, 0.0), _FORWARD, 0.12, (8.13, 20, 1.4),

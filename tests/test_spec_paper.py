@@ -59,7 +59,7 @@ def test_forward_cases() -> None:
         assert s.delivery.takeoff_angle_deg == 0.0
         assert s.lane.friction == ConstantFriction(mu=0.12)
     assert paper_scene(1).ball.com_offset_m == (0.0, 0.0, 0.0)
-    assert paper_scene(2).ball.com_offset_m == (0.0, 0.0, 0.001)
+    assert paper_scene(2).ball.com_offset_m == (0.001, 0.0, 0.0)
     assert paper_scene(4).ball.com_offset_m == (0.0, 0.001, 0.0)  # +y, parallel to omega0
     np.testing.assert_array_equal(paper_scene(4).resolve().r_delta_body_m, [0, -0.001, 0])
     assert paper_scene(3).ball.rg_m == (0.067, 0.069, 0.069)

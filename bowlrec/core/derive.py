@@ -33,7 +33,7 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
     for k in range(n):
         for i in range(11):
             y[i] = rec[k, COL_STATE + i]
-        phase = PHASE_ROLL if rec[k, COL_PHASE] == 1.0 else PHASE_SLIDE
+        phase = PHASE_ROLL if rec[k, COL_PHASE] == PHASE_ROLL else PHASE_SLIDE
         mu = rec[k, COL_MU]
         ux = rec[k, COL_UX]
         uy = rec[k, COL_UY]

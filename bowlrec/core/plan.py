@@ -72,6 +72,9 @@ class Plan:
     slide_to_roll: int = SLIDE_TO_ROLL_EXACT
     #: slip speed below which the paper's rule declares rolling (m/s)
     slip_threshold_mps: float = 0.01
+    #: slip speed below which sliding friction acts along the slaved direction (m/s); None picks
+    #: a value from the tolerance (see ``bowlrec.core.solver.slip_layer``)
+    slip_layer_mps: float | None = None
     #: hard limit on simulated time (s)
     max_time_s: float = 60.0
     #: hard limit on accepted integrator steps

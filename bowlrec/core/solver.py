@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from .derive import derive_samples
-from .dynamics import N_STATE, pack_params
+from .dynamics import N_STATE, PHASE_ROLL, pack_params
 from .integrator import (
     COL_MU,
     COL_PHASE,
@@ -43,6 +43,13 @@ def needs_orientation(plan: Plan) -> bool:
     return not (plan.scalar_inertia and not plan.has_offset and plan.record_mode == RECORD_SUMMARY)
 
 
+def slip_layer(plan: Plan) -> float:
+    """Slip speed (m/s) below which friction acts along the slaved direction (not stiff)."""
+    if plan.slip_layer_mps is not None:
+        return float(plan.slip_layer_mps)
+    return min(1e-4, max(1e-8, 1e4 * plan.rtol))
+
+
 def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
     """Call the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``)."""
     return simulate_kernel(
@@ -61,6 +68,7 @@ def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
         float(plan.max_time_s),
         int(plan.max_steps),
         needs_orientation(plan),
+        slip_layer(plan),
     )
 
 
@@ -107,7 +115,7 @@ def solve(plan: Plan) -> Trajectory:
         velocity_mps=velocity,
         quaternion_wxyz=rec[:, COL_STATE + 4 : COL_STATE + 8].copy(),
         omega_radps=rec[:, COL_STATE + 8 : COL_STATE + 11].copy(),
-        phase=rec[:, COL_PHASE].astype(np.int8),
+        phase=(rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
         mu=rec[:, COL_MU].copy(),
         normal_force_N=normal * mass,
         friction_force_N=fric3,
