@@ -47,8 +47,8 @@ PHASE_ROLL = 1
 #: (the direction along which the slip grows along itself) until the slip is established
 PHASE_LAYER = 2
 
-P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET = range(10)
-N_PAR = 10
+P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET, P_SLAYER = range(11)
+N_PAR = 11
 
 
 def pack_params(
@@ -56,14 +56,18 @@ def pack_params(
     g_mps2: float,
     inertia_per_mass_m2: np.ndarray,
     r_delta_body_m: np.ndarray,
+    slip_layer_mps: float = 1e-5,
 ) -> np.ndarray:
-    """Parameter vector for the kernels; sets the scalar-inertia and offset flags exactly."""
+    """Parameter vector for the kernels; sets the scalar-inertia and offset flags exactly.
+
+    ``slip_layer_mps``: slip speed (m/s) below which friction acts along the slaved direction
+    (see :func:`friction_direction`)."""
     k = np.asarray(inertia_per_mass_m2, dtype=np.float64)
     rd = np.asarray(r_delta_body_m, dtype=np.float64)
     scalar = 1.0 if (k[0] == k[1] == k[2]) else 0.0
     offset = 0.0 if not np.any(rd != 0.0) else 1.0
     return np.array(
-        [radius_m, g_mps2, k[0], k[1], k[2], rd[0], rd[1], rd[2], scalar, offset],
+        [radius_m, g_mps2, k[0], k[1], k[2], rd[0], rd[1], rd[2], scalar, offset, slip_layer_mps],
         dtype=np.float64,
     )
 
@@ -254,14 +258,16 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-un
 
     PHASE_SLIDE: along the slip s, continued through s = 0 with the sign that keeps it on the side
     of the reference direction (so the right-hand side stays smooth across the slide->roll root,
-    which is located by the event s . u_ref = 0). PHASE_LAYER: the slaved direction.
+    which is located by the event s . u_ref = 0). PHASE_LAYER, and any stage of a sliding step
+    where |s| < slip_layer / 2 (there the direction of s is dominated by the stage's truncation
+    error): the slaved direction, warm-started from the reference direction.
     """
     if phase == PHASE_LAYER:
         return slaved_direction(y, par, mu, ux_ref, uy_ref)
     sx, sy = slip(y, par)
     s = math.sqrt(sx * sx + sy * sy)
-    if s == 0.0:
-        return ux_ref, uy_ref
+    if s < 0.5 * par[P_SLAYER]:
+        return slaved_direction(y, par, mu, ux_ref, uy_ref)
     ux = sx / s
     uy = sy / s
     if ux * ux_ref + uy * uy_ref < 0.0:

@@ -44,6 +44,7 @@ from .dynamics import (
     N_STATE,
     ball_frame,
     P_G,
+    P_SLAYER,
     PHASE_LAYER,
     PHASE_ROLL,
     PHASE_SLIDE,
@@ -407,7 +408,6 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     max_time,
     max_steps,
     orient,
-    s_layer,
 ):
     """Integrate one delivery. See the module docstring.
 
@@ -416,6 +416,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     ``slide_mode``: 0 exact slide->roll, 1 the paper's |s| < slip_threshold rule.
     """
     g = par[P_G]
+    s_layer = par[P_SLAYER]
     y = y_init.copy()
     t = 0.0
     K = np.empty((7, N_STATE))

@@ -35,7 +35,13 @@ def initial_state(plan: Plan) -> np.ndarray:
 
 
 def kernel_params(plan: Plan) -> np.ndarray:
-    return pack_params(plan.radius_m, plan.g_mps2, plan.inertia_per_mass_m2, plan.r_delta_body_m)
+    return pack_params(
+        plan.radius_m,
+        plan.g_mps2,
+        plan.inertia_per_mass_m2,
+        plan.r_delta_body_m,
+        slip_layer(plan),
+    )
 
 
 def needs_orientation(plan: Plan) -> bool:
@@ -68,7 +74,6 @@ def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
         float(plan.max_time_s),
         int(plan.max_steps),
         needs_orientation(plan),
-        slip_layer(plan),
     )
 
 
