@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import sys
-from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -80,7 +79,7 @@ def simulate(
 
     scene_obj = _load_scene_or_exit(scene)
     plan = scene_obj.resolve()
-    from .core.plan import RECORD_SUMMARY, RECORD_STEPS
+    from .core.plan import RECORD_STEPS, RECORD_SUMMARY
 
     if out is None and plan.record_mode != RECORD_SUMMARY:
         plan = replace(plan, record_mode=RECORD_SUMMARY)  # nothing will read the samples
@@ -130,11 +129,6 @@ def _print_summary(name: str, traj: Any, out: Path | None) -> None:
     if out is not None:
         table.add_row("trajectory", f"{out} ({traj.n_samples} samples)")
     Console().print(table)
-
-
-class Variant(str, Enum):
-    as_written = "as_written"
-    best_fit = "best_fit"
 
 
 @app.command()

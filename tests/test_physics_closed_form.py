@@ -1,7 +1,8 @@
 """Whole runs of a uniform ball (scalar inertia k^2, no offset) on constant friction against the
 closed-form solution.
 
-Derivation (per unit mass; R_con = (0, 0, -R); slip s = R_con x w - v = (R w_y - v_x, -R w_x - v_y)):
+Derivation (per unit mass; R_con = (0, 0, -R); the slip
+s = R_con x w - v = (R w_y - v_x, -R w_x - v_y)):
 
 * Sliding: the friction mu g u acts along u = s/|s| at the contact point, so
       dv/dt = mu g u,    dw/dt = (R_con x mu g u) / k^2 = (mu g R / k^2) (u_y, -u_x, 0),
@@ -33,7 +34,7 @@ import math
 import numpy as np
 import pytest
 
-from bowlrec.core.plan import RECORD_STEPS, RECORD_SUMMARY
+from bowlrec.core.plan import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
 from bowlrec.core.solver import solve
 from bowlrec.spec import Scene
 
@@ -183,22 +184,34 @@ def test_trajectory_matches_closed_form(name: str) -> None:
     assert abs(s.pocket_deg - ex["pocket"]) <= REL * 1.0, (s.pocket_deg, ex["pocket"])
 
     # --- every recorded sample
+    err_r, err_v, err_w, err_s = sample_errors(tr, plan, ex)
+    assert np.all(tr.position_m[:, 2] == 0.0) and np.all(tr.velocity_mps[:, 2] == 0.0)
+    assert np.allclose(tr.normal_force_N, plan.mass_kg * plan.g_mps2, rtol=1e-15, atol=0)
+    d_slide = 0.0 if ex["x_star"] is None else s.slide_m - ex["x_star"]
+    print(
+        f"{name}: max rel err r {err_r:.2e} v {err_v:.2e} w {err_w:.2e} s {err_s:.2e}; "
+        f"d slide {d_slide:.1e} m, d hook {s.hook_m - ex['hook']:.1e} m, "
+        f"d pocket {s.pocket_deg - ex['pocket']:.1e} deg, d t {s.time_s - ex['t_pins']:.1e} s"
+    )
+    assert err_r < REL and err_v < REL and err_w < REL and err_s < REL, (err_r, err_v, err_w, err_s)
+
+
+def sample_errors(tr, plan, ex):
+    """Max errors of position (relative to max(|r|, 1 m)), velocity (to |v0|), omega (to
+    max(|w0|, |v0|/R)) and slip (to |v0|) over all recorded samples."""
     v_scale = float(np.linalg.norm(plan.velocity0_mps))
     w_scale = max(float(np.linalg.norm(plan.omega0_radps)), v_scale / plan.radius_m)
     err_r = err_v = err_w = err_s = 0.0
+    assert tr.n_samples > 10
     for i in range(tr.n_samples):
-        t = tr.t_s[i]
-        r, v, w, phase = ex["state"](t)
+        r, v, w, _ = ex["state"](tr.t_s[i])
         err_r = max(err_r, np.linalg.norm(tr.position_m[i, :2] - r) / max(np.linalg.norm(r), 1.0))
         err_v = max(err_v, np.linalg.norm(tr.velocity_mps[i, :2] - v) / v_scale)
         err_w = max(err_w, np.linalg.norm(tr.omega_radps[i] - w) / w_scale)
         # slip recorded: s = R_con x w - v (zero while rolling)
         s_ex = np.array([plan.radius_m * w[1] - v[0], -plan.radius_m * w[0] - v[1]])
         err_s = max(err_s, np.linalg.norm(tr.slip_mps[i, :2] - s_ex) / v_scale)
-    assert np.all(tr.position_m[:, 2] == 0.0) and np.all(tr.velocity_mps[:, 2] == 0.0)
-    assert np.allclose(tr.normal_force_N, plan.mass_kg * plan.g_mps2, rtol=1e-15, atol=0)
-    print(f"{name}: max rel err r {err_r:.2e} v {err_v:.2e} w {err_w:.2e} s {err_s:.2e}")
-    assert err_r < REL and err_v < REL and err_w < REL and err_s < REL, (err_r, err_v, err_w, err_s)
+    return err_r, err_v, err_w, err_s
 
 
 def test_case1_numbers() -> None:
@@ -225,11 +238,17 @@ def test_case1_numbers() -> None:
 @pytest.mark.parametrize("rtol", [1e-6, 1e-12])
 def test_closed_form_independent_of_rtol(rtol: float) -> None:
     """Piecewise-constant dynamics: even a loose tolerance must give the exact answer (the
-    event location does not depend on the step size), and summary mode must agree with steps."""
+    event location does not depend on the step size); the three record modes must agree."""
     plan = make_plan(**CASES["oblique"])
     ex = _expected(plan)
-    for mode in (RECORD_STEPS, RECORD_SUMMARY):
-        s = solve(dataclasses.replace(plan, rtol=rtol, record_mode=mode)).summary
+    for mode in (RECORD_STEPS, RECORD_RATE, RECORD_SUMMARY):
+        tr = solve(dataclasses.replace(plan, rtol=rtol, record_mode=mode, record_dt_s=2e-3))
+        s = tr.summary
+        if mode != RECORD_SUMMARY:
+            # samples from the steps or from the 4th-order dense output: a quadratic in t is
+            # reproduced exactly by both
+            errs = sample_errors(tr, plan, ex)
+            assert max(errs) < REL, (rtol, mode, errs)
         assert abs(s.slide_m - ex["x_star"]) <= REL * ex["x_star"], (rtol, mode, s.slide_m)
         assert abs(s.hook_m - ex["hook"]) <= REL, (rtol, mode, s.hook_m, ex["hook"])
         assert abs(s.pocket_deg - ex["pocket"]) <= REL, (rtol, mode)

@@ -23,7 +23,8 @@ sign slips):
   so  I_Delta^s alpha      = -a_alpha R_con  x mu_vec   (first order in r_Delta),
       I_DeltaDelta^s alpha = -a_alpha r_Delta x mu_vec  (second order),
       tau_fric = g R_con x mu_vec,  tau_dev = (I_dev w) x w,
-      tau_Delta^s = g r_Delta x mu_vec + a_omega R_con x mu_vec,  tau_DeltaDelta^s = a_omega r_Delta x mu_vec.
+      tau_Delta^s = g r_Delta x mu_vec + a_omega R_con x mu_vec,
+      tau_DeltaDelta^s = a_omega r_Delta x mu_vec.
   As a matrix, with a_alpha = e_a . alpha, e_a = z x r_Delta = (-r_y, r_x, 0):
       I_Delta^s = R [[ mu_y r_y, -mu_y r_x, 0], [-mu_x r_y, mu_x r_x, 0], [0, 0, 0]]
   (the OCR'd Eq. (A9) prints +r_y mu_x in row 2: a sign slip), while Eq. (A10) for
@@ -116,7 +117,8 @@ def newton_euler(y, radius, k2, rd_body, phase, mu=0.0, u=(1.0, 0.0)):
     a = np.zeros((9, 9))
     b = np.zeros(9)
     ia, i_f, ic = slice(0, 3), slice(3, 6), slice(6, 9)
-    # force: a_cb + r_Delta x alpha - F = g_vec + w x (w x r_Delta)   [a_com = a_cb - alpha x r_D - ...]
+    # force: a_cb + r_Delta x alpha - F = g_vec + w x (w x r_Delta)
+    # (from a_com = a_cb - alpha x r_Delta - w x (w x r_Delta) = F + g_vec)
     a[0:3, ic] = np.eye(3)
     a[0:3, ia] = skew(rd)
     a[0:3, i_f] = -np.eye(3)

@@ -21,7 +21,8 @@ Sliding (paper Eqs. (6), (A8)-(A12)): with rho = r_Delta + R_con and mu_vec = (m
 e_a = z x r_Delta so that a_alpha = e_a . alpha, a_w = [(w x r_Delta) x w]_z. This is the sum of the
 paper's terms: I_Delta^s + I_DeltaDelta^s = -(rho x mu_vec) e_a^T and
 tau_fric + tau_Delta^s + tau_DeltaDelta^s = (g + a_w) rho x mu_vec. The normal force per unit mass
-is n = g + a_alpha + a_w and the center accelerates at n mu u + [alpha x r_Delta + w x (w x r_Delta)]_h.
+is n = g + a_alpha + a_w and the center accelerates at
+n mu u + [alpha x r_Delta + w x (w x r_Delta)]_h.
 
 Rolling (Eqs. (7), (B1)-(B7)): (I + |rho|^2 1 - rho rho^T) alpha = (I_dev w) x w + tau_Delta^r
 + tau_DeltaDelta^r, the center accelerates at R_con x alpha and the contact force per unit mass is
@@ -174,7 +175,8 @@ def roll_accel(y, par):  # type: ignore[no-untyped-def]
     if par[P_OFFSET] != 0.0:
         w2 = wx * wx + wy * wy + wz * wz
         wr = wx * rdx + wy * rdy + wz * rdz
-        # tau_Delta^r = g r x z + R [w^2 r x z + (w.r) z x w];  r x z = (ry, -rx, 0), z x w = (-wy, wx, 0)
+        # tau_Delta^r = g r x z + R [w^2 r x z + (w.r) z x w]
+        # with r x z = (ry, -rx, 0) and z x w = (-wy, wx, 0)
         tx += g * rdy + R * (w2 * rdy - wr * wy)
         ty += -g * rdx + R * (-w2 * rdx + wr * wx)
         # tau_DeltaDelta^r = (w.r) w x r
@@ -203,7 +205,7 @@ def roll_accel(y, par):  # type: ignore[no-untyped-def]
 
 @njit(cache=True)
 def slip(y, par):  # type: ignore[no-untyped-def]
-    """Slip velocity s = R_con x w - v_cb (m/s): the floor's velocity relative to the contact point."""
+    """Slip velocity s = R_con x w - v_cb (m/s): the floor's velocity relative to the contact."""
     R = par[P_R]
     return R * y[9] - y[2], -R * y[8] - y[3]
 
@@ -340,4 +342,6 @@ def energy_per_mass(y, par):  # type: ignore[no-untyped-def]
     lx = ixx * wx + ixy * wy + ixz * wz
     ly = ixy * wx + iyy * wy + iyz * wz
     lz = ixz * wx + iyz * wy + izz * wz
-    return 0.5 * (vx * vx + vy * vy + vz * vz) + 0.5 * (wx * lx + wy * ly + wz * lz) - par[P_G] * rdz
+    return (
+        0.5 * (vx * vx + vy * vy + vz * vz) + 0.5 * (wx * lx + wy * ly + wz * lz) - par[P_G] * rdz
+    )

@@ -42,12 +42,12 @@ from numba import njit
 
 from .dynamics import (
     N_STATE,
-    ball_frame,
     P_G,
     P_SLAYER,
     PHASE_LAYER,
     PHASE_ROLL,
     PHASE_SLIDE,
+    ball_frame,
     rhs,
     roll_accel,
     slaved_direction,
@@ -535,7 +535,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
             for idx in range(10):
                 if gprev[idx] >= 0.0 and gcur[idx] < 0.0:
                     te = _locate(idx, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
-                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv, dtmp)  # fmt: skip
+                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
+                                 dtmp)  # fmt: skip
                     if te < best_t:
                         best_t = te
                         best_idx = idx
@@ -563,7 +564,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
                     found = 10
                 if found >= 0:
                     te = _locate(found, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
-                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv, dtmp)  # fmt: skip
+                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
+                                 dtmp)  # fmt: skip
                     if te <= best_t:
                         best_t = te
                         best_idx = found
