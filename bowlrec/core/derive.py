@@ -10,7 +10,7 @@ from .integrator import COL_MU, COL_PHASE, COL_STATE, COL_UX, COL_UY
 from .terms import equation_terms
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
     """Per-sample derived quantities, all per unit mass (multiply by M for forces/energies).
 

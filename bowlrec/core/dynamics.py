@@ -48,8 +48,10 @@ PHASE_ROLL = 1
 #: (the direction along which the slip grows along itself) until the slip is established
 PHASE_LAYER = 2
 
-P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET, P_SLAYER = range(11)
-N_PAR = 11
+(P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET, P_SLAYER, P_QWEIGHT) = range(
+    12
+)
+N_PAR = 12
 
 
 def pack_params(
@@ -58,22 +60,37 @@ def pack_params(
     inertia_per_mass_m2: np.ndarray,
     r_delta_body_m: np.ndarray,
     slip_layer_mps: float = 1e-5,
+    orientation_weight: float = 1.0,
 ) -> np.ndarray:
     """Parameter vector for the kernels; sets the scalar-inertia and offset flags exactly.
 
     ``slip_layer_mps``: slip speed (m/s) below which friction acts along the slaved direction
-    (see :func:`friction_direction`)."""
+    (see :func:`friction_direction`). ``orientation_weight``: weight of the quaternion in the
+    integrator's error norm (0 drops it)."""
     k = np.asarray(inertia_per_mass_m2, dtype=np.float64)
     rd = np.asarray(r_delta_body_m, dtype=np.float64)
     scalar = 1.0 if (k[0] == k[1] == k[2]) else 0.0
     offset = 0.0 if not np.any(rd != 0.0) else 1.0
     return np.array(
-        [radius_m, g_mps2, k[0], k[1], k[2], rd[0], rd[1], rd[2], scalar, offset, slip_layer_mps],
+        [
+            radius_m,
+            g_mps2,
+            k[0],
+            k[1],
+            k[2],
+            rd[0],
+            rd[1],
+            rd[2],
+            scalar,
+            offset,
+            slip_layer_mps,
+            orientation_weight,
+        ],
         dtype=np.float64,
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def ball_frame(y, par):  # type: ignore[no-untyped-def]
     """World inertia per unit mass (6-tuple) and r_Delta in the lane frame at state y."""
     if par[P_SCALAR] != 0.0 and par[P_OFFSET] == 0.0:
@@ -92,7 +109,7 @@ def ball_frame(y, par):  # type: ignore[no-untyped-def]
     return iw, rd
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dev_torque(iw, wx, wy, wz, scalar):  # type: ignore[no-untyped-def]
     """tau_dev = (I_dev w) x w = (I w) x w (the isotropic part is parallel to w)."""
     if scalar:
@@ -104,7 +121,7 @@ def _dev_torque(iw, wx, wy, wz, scalar):  # type: ignore[no-untyped-def]
     return cross(lx, ly, lz, wx, wy, wz)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slide_accel(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """Sliding with friction along the unit direction (ux, uy) of the slip.
 
@@ -154,7 +171,7 @@ def slide_accel(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return accx, accy, ax_, ay_, az_, n
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def roll_accel(y, par):  # type: ignore[no-untyped-def]
     """Rolling without slipping.
 
@@ -203,14 +220,14 @@ def roll_accel(y, par):  # type: ignore[no-untyped-def]
     return R * ay_, -R * ax_, ax_, ay_, az_, fx, fy, n
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slip(y, par):  # type: ignore[no-untyped-def]
     """Slip velocity s = R_con x w - v_cb (m/s): the floor's velocity relative to the contact."""
     R = par[P_R]
     return R * y[9] - y[2], -R * y[8] - y[3]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slip_rate(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """ds/dt (m/s^2) while sliding with friction along (ux, uy)."""
     ax, ay, alx, aly, _alz, _n = slide_accel(y, par, mu, ux, uy)
@@ -218,7 +235,7 @@ def slip_rate(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return R * aly - ax, -R * alx - ay
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """Unit friction direction u with ds/dt(u) parallel to +u (Newton on the angle from (ux, uy)).
 
@@ -254,7 +271,7 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return math.cos(phi), math.sin(phi)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-untyped-def]
     """Unit direction of the friction force for a sliding phase.
 
@@ -264,11 +281,14 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-un
     where |s| < slip_layer / 2 (there the direction of s is dominated by the stage's truncation
     error): the slaved direction, warm-started from the reference direction.
     """
-    if phase == PHASE_LAYER:
-        return slaved_direction(y, par, mu, ux_ref, uy_ref)
     sx, sy = slip(y, par)
-    s = math.sqrt(sx * sx + sy * sy)
-    if s < 0.5 * par[P_SLAYER]:
+    return _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, math.sqrt(sx * sx + sy * sy))
+
+
+@njit(cache=True, error_model="numpy")
+def _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
+    """:func:`friction_direction` given the slip (sx, sy) and its magnitude s."""
+    if phase == PHASE_LAYER or s < 0.5 * par[P_SLAYER]:
         return slaved_direction(y, par, mu, ux_ref, uy_ref)
     ux = sx / s
     uy = sy / s
@@ -277,7 +297,7 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-un
     return ux, uy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyped-def]
     """Write dy/dt into ``dy``; return (n, margin, ux, uy).
 
@@ -297,10 +317,10 @@ def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyp
         ux = 0.0
         uy = 0.0
     else:
-        ux, uy = friction_direction(y, par, phase, mu, ux_ref, uy_ref)
-        ax, ay, alx, aly, alz, n = slide_accel(y, par, mu, ux, uy)
         sx, sy = slip(y, par)
         margin = math.sqrt(sx * sx + sy * sy)
+        ux, uy = _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, margin)
+        ax, ay, alx, aly, alz, n = slide_accel(y, par, mu, ux, uy)
     dy[2] = ax
     dy[3] = ay
     if orient:
@@ -324,7 +344,7 @@ def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyp
     return n, margin, ux, uy
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def energy_per_mass(y, par):  # type: ignore[no-untyped-def]
     """Total mechanical energy per unit mass (J/kg): translation of the center of mass, rotation
     about it, and gravity with z = 0 at the geometric center."""

@@ -43,6 +43,7 @@ from numba import njit
 from .dynamics import (
     N_STATE,
     P_G,
+    P_QWEIGHT,
     P_SLAYER,
     PHASE_LAYER,
     PHASE_ROLL,
@@ -129,7 +130,7 @@ N_SUB = 4  # dense samples per step on which event functions are scanned
 MAX_EVENTS = 100_000
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient):  # type: ignore[no-untyped-def]
     """Stages 2..7 of one DP5 step from (t, y) with K[0] = f(y). Returns the minimum normal force
     and friction margin over stages 2..7 and the normal force / margin / direction at the end."""
@@ -173,24 +174,30 @@ def _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient):  # type: 
     return nmin, mmin, r[0], r[1], r[2], r[3]
 
 
-@njit(cache=True)
-def _error_norm(y, ynew, K, h, rtol, orient):  # type: ignore[no-untyped-def]
-    """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component."""
+@njit(cache=True, error_model="numpy")
+def _error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
+    """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component.
+
+    The quaternion's error counts with the weight ``q_weight`` (0 drops it): see
+    ``solver.orientation_weight``."""
     acc = 0.0
     cnt = 0
     for i in range(N_STATE):
-        if not orient and 4 <= i <= 7:
-            continue
+        w = 1.0
+        if 4 <= i <= 7:
+            if q_weight == 0.0:
+                continue
+            w = q_weight
         e = h * (
             E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
         )
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
-        acc += (e / sc) ** 2
+        acc += (w * e / sc) ** 2
         cnt += 1
     return math.sqrt(acc / cnt)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
     for i in range(N_STATE):
         ydiff = ynew[i] - y[i]
@@ -204,7 +211,7 @@ def _dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
         )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dense(rc, theta, out):  # type: ignore[no-untyped-def]
     th1 = 1.0 - theta
     for i in range(N_STATE):
@@ -213,7 +220,7 @@ def _dense(rc, theta, out):  # type: ignore[no-untyped-def]
         )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _event_values(yy, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer, gv):  # type: ignore[no-untyped-def]
     """Values of the event functions at state yy (each fires on a >= 0 -> < 0 change).
 
@@ -248,7 +255,7 @@ def _event_values(yy, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer
             gv[9] = math.sqrt(sx * sx + sy * sy) - 0.5 * s_layer
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _dynamic_values(yy, par, phase, mu, uxr, uyr, orient, dtmp):  # type: ignore[no-untyped-def]
     """Friction reserve (rolling only) and normal force at yy (these need the equations)."""
     r = rhs(yy, par, phase, mu, uxr, uyr, orient, dtmp)
@@ -257,7 +264,7 @@ def _dynamic_values(yy, par, phase, mu, uxr, uyr, orient, dtmp):  # type: ignore
     return 1.0, r[0]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _locate(idx, ta, tb, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer,
             orient, ybuf, gv, dtmp):  # type: ignore[no-untyped-def]  # fmt: skip
     """Illinois root of event function idx on the dense output between ta (g >= 0) and tb (< 0)."""
@@ -292,7 +299,7 @@ def _locate(idx, ta, tb, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode
     return tb
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _eval_one(idx, t, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer,
               orient, ybuf, gv, dtmp):  # type: ignore[no-untyped-def]  # fmt: skip
     _dense(rc, (t - t0) / h, ybuf)
@@ -303,7 +310,7 @@ def _eval_one(idx, t, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, t
     return gv[idx]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _cell_bounds(ix, iy, x_edges, y_edges, lane_length, lane_width, bounds):  # type: ignore[no-untyped-def]
     nx = x_edges.shape[0]
     ny = y_edges.shape[0]
@@ -315,7 +322,7 @@ def _cell_bounds(ix, iy, x_edges, y_edges, lane_length, lane_width, bounds):  # 
     bounds[5] = lane_width
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _push(rec, nrec, t, y, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     if nrec >= rec.shape[0]:
         bigger = np.empty((2 * rec.shape[0], rec.shape[1]))
@@ -335,7 +342,7 @@ def _push(rec, nrec, t, y, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     return rec, nrec + 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _push_event(ev, nev, t, kind, y, mu, phase):  # type: ignore[no-untyped-def]
     if nev >= ev.shape[0]:
         bigger = np.empty((2 * ev.shape[0], ev.shape[1]))
@@ -350,7 +357,7 @@ def _push_event(ev, nev, t, kind, y, mu, phase):  # type: ignore[no-untyped-def]
     return ev, nev + 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _remove_slip(y, par, orient):  # type: ignore[no-untyped-def]
     """Apply the horizontal contact impulse that makes the slip exactly zero (in place)."""
     sx, sy = slip(y, par)
@@ -372,7 +379,7 @@ def _remove_slip(y, par, orient):  # type: ignore[no-untyped-def]
     _apply_impulse(y, par, jx, jy)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     """Horizontal impulse (jx, jy, 0) per unit mass at the contact point (in place)."""
     iw, rd = ball_frame(y, par)
@@ -391,7 +398,7 @@ def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     y[10] += dwz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def simulate_kernel(  # type: ignore[no-untyped-def]
     par,
     y_init,
@@ -509,7 +516,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
             uxr, uyr = slaved_direction(y, par, mu, uxr, uyr)
         st = _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
         nfev += 6
-        err = _error_norm(y, ynew, K, h, rtol, orient)
+        err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
         if not (err <= 1.0):
             # reject
             fac11 = err**0.2 if err == err else 10.0

@@ -18,7 +18,8 @@ from .integrator import (
     STATUS_PINS,
     simulate_kernel,
 )
-from .plan import RECORD_SUMMARY, Plan
+from .closed_form import closed_form_kernel
+from .plan import RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT, Plan
 from .terms import INERTIA_TERMS, TORQUE_TERMS
 from .trajectory import EVENT_KINDS, OUTCOMES, Event, Summary, Trajectory
 
@@ -41,12 +42,29 @@ def kernel_params(plan: Plan) -> np.ndarray:
         plan.inertia_per_mass_m2,
         plan.r_delta_body_m,
         slip_layer(plan),
+        orientation_weight(plan),
     )
 
 
 def needs_orientation(plan: Plan) -> bool:
     """The quaternion is integrated only when the motion or the output depends on it."""
     return not (plan.scalar_inertia and not plan.has_offset and plan.record_mode == RECORD_SUMMARY)
+
+
+def orientation_weight(plan: Plan) -> float:
+    """Weight of the quaternion in the error norm (dimensionless).
+
+    When samples are recorded the orientation is an output: full weight. For summary-only runs
+    the orientation matters only through the anisotropy of the inertia and the offset, so an
+    orientation error d theta perturbs the forces by ~ d theta * max(dI/I, |r_Delta|/R); the
+    quaternion is weighted by that factor (0 for a uniform ball: it is then not integrated).
+    """
+    if plan.record_mode != RECORD_SUMMARY:
+        return 1.0
+    k = np.asarray(plan.inertia_per_mass_m2, dtype=np.float64)
+    anisotropy = float((k.max() - k.min()) / k.mean())
+    offset = float(np.linalg.norm(plan.r_delta_body_m)) / plan.radius_m
+    return max(anisotropy, offset)
 
 
 def slip_layer(plan: Plan) -> float:
@@ -56,8 +74,34 @@ def slip_layer(plan: Plan) -> float:
     return min(1e-4, max(1e-8, 1e4 * plan.rtol))
 
 
-def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
-    """Call the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``)."""
+def use_closed_form(plan: Plan) -> bool:
+    """A uniform ball needs no integrator when only the summary is asked for (exact rule)."""
+    return (
+        plan.scalar_inertia
+        and not plan.has_offset
+        and plan.record_mode == RECORD_SUMMARY
+        and plan.slide_to_roll == SLIDE_TO_ROLL_EXACT
+    )
+
+
+def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-arg]
+    """Call the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``).
+
+    ``method``: "auto" (the closed form where it applies, else the integrator), "integrator"
+    or "closed_form"."""
+    if method == "closed_form" or (method == "auto" and use_closed_form(plan)):
+        if not (plan.scalar_inertia and not plan.has_offset):
+            raise ValueError("the closed form needs a uniform ball (scalar inertia, no offset)")
+        return closed_form_kernel(
+            kernel_params(plan),
+            initial_state(plan),
+            np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
+            np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
+            np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+            float(plan.lane_length_m),
+            float(plan.lane_width_m),
+            float(plan.max_time_s),
+        )
     return simulate_kernel(
         kernel_params(plan),
         initial_state(plan),
@@ -77,9 +121,11 @@ def run_kernel(plan: Plan) -> tuple:  # type: ignore[type-arg]
     )
 
 
-def solve(plan: Plan) -> Trajectory:
-    """Simulate one delivery from release to its outcome (pins, gutter, stop, loss of contact)."""
-    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = run_kernel(plan)
+def solve(plan: Plan, method: str = "auto") -> Trajectory:
+    """Simulate one delivery from release to its outcome (pins, gutter, stop, loss of contact).
+
+    ``method`` as in :func:`run_kernel`."""
+    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = run_kernel(plan, method)
     rec = rec[:nrec]
     ev = ev[:nev]
     par = kernel_params(plan)

@@ -38,7 +38,7 @@ TORQUE_TERMS = (
 )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _crossv(a, b):  # type: ignore[no-untyped-def]
     out = np.empty(3)
     out[0] = a[1] * b[2] - a[2] * b[1]
@@ -47,7 +47,7 @@ def _crossv(a, b):  # type: ignore[no-untyped-def]
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     """All inertia matrices and torques of the phase's equation at state y.
 

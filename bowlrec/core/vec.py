@@ -11,13 +11,13 @@ import math
 from numba import njit
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def cross(ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
     """a x b as a tuple."""
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def quat_matrix(qw, qx, qy, qz):  # type: ignore[no-untyped-def]
     """Rotation matrix (row-major 9-tuple) of the quaternion, normalized first."""
     n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
@@ -38,7 +38,7 @@ def quat_matrix(qw, qx, qy, qz):  # type: ignore[no-untyped-def]
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def world_inertia(m, k1, k2, k3):  # type: ignore[no-untyped-def]
     """R diag(k) R^T as a symmetric 6-tuple (xx, yy, zz, xy, xz, yz)."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = m
@@ -51,7 +51,7 @@ def world_inertia(m, k1, k2, k3):  # type: ignore[no-untyped-def]
     return ixx, iyy, izz, ixy, ixz, iyz
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def rotate(m, bx, by, bz):  # type: ignore[no-untyped-def]
     """R b for a row-major 9-tuple R."""
     return (
@@ -61,7 +61,7 @@ def rotate(m, bx, by, bz):  # type: ignore[no-untyped-def]
     )
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def solve3(a00, a01, a02, a10, a11, a12, a20, a21, a22, b0, b1, b2):  # type: ignore[no-untyped-def]
     """Solve the 3x3 system A x = b by the adjugate (A is well conditioned here)."""
     c00 = a11 * a22 - a12 * a21
