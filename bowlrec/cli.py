@@ -136,12 +136,21 @@ def paper(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON rows.")] = False,
     markdown: Annotated[bool, typer.Option("--markdown", help="Print a Markdown table.")] = False,
     rtol: Annotated[float | None, typer.Option(help="Integrator tolerance override.")] = None,
+    update_readme: Annotated[
+        Path | None, typer.Option(help="Rewrite the Table III block of this README.")
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from .paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
 
     rows = _run_with_progress(quiet, lambda cb: run_paper_cases(rtol=rtol, progress=cb))
+    if update_readme is not None:
+        from .paper_table import update_readme as _update
+
+        changed = _update(update_readme, markdown_table(rows))
+        typer.echo(f"{update_readme}: {'updated' if changed else 'already up to date'}")
+        return
     if as_json:
         out = [
             {

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 from .core.trajectory import Summary
 from .paper import TABLE_III, PaperCase, paper_scene
@@ -118,3 +119,20 @@ def markdown_table(rows: list[ComparisonRow]) -> str:
     lines.append("")
     lines.extend(f"- ({key}) {text}" for key, text in NOTE_TEXT.items())
     return "\n".join(lines) + "\n"
+
+
+README_BEGIN = "<!-- table3:begin -->\n"
+README_END = "<!-- table3:end -->\n"
+
+
+def update_readme(path: str | Path, table: str) -> bool:
+    """Replace the Table III block of a README; returns True when the file changed."""
+    p = Path(path)
+    text = p.read_text(encoding="utf-8")
+    start = text.index(README_BEGIN) + len(README_BEGIN)
+    end = text.index(README_END)
+    new = text[:start] + table + text[end:]
+    if new == text:
+        return False
+    p.write_text(new, encoding="utf-8")
+    return True

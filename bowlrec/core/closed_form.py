@@ -3,8 +3,8 @@
 While sliding on friction mu the contact force is mu M g along the slip direction u, which for a
 uniform sphere never turns (ds/dt = -mu g (1 + R^2/k^2) u), so within a friction cell
 
-    v(t) = v0 + mu g u t,   r(t) = r0 + v0 t + mu g u t^2 / 2,   w(t) = w0 + mu g R (u_y, -u_x, 0) t / k^2,
-    |s|(t) = |s0| - mu g (1 + R^2/k^2) t,
+    v(t) = v0 + mu g u t,   r(t) = r0 + v0 t + mu g u t^2 / 2,
+    w(t) = w0 + mu g R (u_y, -u_x, 0) t / k^2,   |s|(t) = |s0| - mu g (1 + R^2/k^2) t,
 
 and a rolling uniform ball needs no friction, so it rolls straight at constant speed. The events
 (cell boundaries, slip zero, v_x = 0, pins, gutters) are roots of these polynomials, solved in

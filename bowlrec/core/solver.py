@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .closed_form import closed_form_kernel
 from .derive import derive_samples
 from .dynamics import N_STATE, PHASE_ROLL, pack_params
 from .integrator import (
@@ -18,7 +19,6 @@ from .integrator import (
     STATUS_PINS,
     simulate_kernel,
 )
-from .closed_form import closed_form_kernel
 from .plan import RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT, Plan
 from .terms import INERTIA_TERMS, TORQUE_TERMS
 from .trajectory import EVENT_KINDS, OUTCOMES, Event, Summary, Trajectory
