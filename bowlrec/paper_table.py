@@ -61,16 +61,21 @@ def run_paper_cases(
     return rows
 
 
+def _fmt(v: float, digits: int) -> str:
+    text = f"{v:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0.0 else text  # no "-0.00"
+
+
 def _slide(v: float | None) -> str:
-    return "to pins" if v is None else f"{v:.2f}"
+    return "to pins" if v is None else _fmt(v, 2)
 
 
 def _cm(v: float | None) -> str:
-    return "-" if v is None else f"{100.0 * v:.1f}"
+    return "-" if v is None else _fmt(100.0 * v, 1)
 
 
 def _deg(v: float | None) -> str:
-    return "-" if v is None else f"{v:.2f}"
+    return "-" if v is None else _fmt(v, 2)
 
 
 HEADER = (
