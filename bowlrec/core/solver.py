@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -84,30 +85,32 @@ def use_closed_form(plan: Plan) -> bool:
     )
 
 
-def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-arg]
-    """Call the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``).
+def kernel_call(plan: Plan, method: str = "auto") -> tuple[Any, tuple[Any, ...]]:
+    """The compiled kernel for a plan and its prepared arguments: ``fn(*args)`` runs it.
 
     ``method``: "auto" (the closed form where it applies, else the integrator), "integrator"
-    or "closed_form"."""
+    or "closed_form". Separating the two lets callers time the kernel alone."""
+    grid = (
+        np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
+        np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
+        np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+    )
     if method == "closed_form" or (method == "auto" and use_closed_form(plan)):
         if not (plan.scalar_inertia and not plan.has_offset):
             raise ValueError("the closed form needs a uniform ball (scalar inertia, no offset)")
-        return closed_form_kernel(
+        args: tuple[Any, ...] = (
             kernel_params(plan),
             initial_state(plan),
-            np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
-            np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
-            np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+            *grid,
             float(plan.lane_length_m),
             float(plan.lane_width_m),
             float(plan.max_time_s),
         )
-    return simulate_kernel(
+        return closed_form_kernel, args
+    args = (
         kernel_params(plan),
         initial_state(plan),
-        np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
-        np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
-        np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+        *grid,
         float(plan.lane_length_m),
         float(plan.lane_width_m),
         float(plan.rtol),
@@ -119,6 +122,13 @@ def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-
         int(plan.max_steps),
         needs_orientation(plan),
     )
+    return simulate_kernel, args
+
+
+def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-arg]
+    """Run the compiled kernel for a plan; returns its raw tuple (see ``simulate_kernel``)."""
+    fn, args = kernel_call(plan, method)
+    return fn(*args)  # type: ignore[no-any-return]
 
 
 def solve(plan: Plan, method: str = "auto") -> Trajectory:
