@@ -95,7 +95,7 @@ HEADER = (
 
 def table_cells(rows: list[ComparisonRow]) -> list[tuple[str, ...]]:
     """The comparison as strings, one tuple per case in HEADER order."""
-    out = []
+    out: list[tuple[str, ...]] = []
     for r in rows:
         p = r.paper
         out.append(

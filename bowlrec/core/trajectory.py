@@ -142,5 +142,6 @@ class Trajectory:
         path = Path(path)
         events = json.dumps([asdict(e) for e in self.events])
         summary = json.dumps(self.summary.to_dict())
-        np.savez_compressed(path, events_json=events, summary_json=summary, **self.arrays())
+        arrays: dict[str, Any] = {"events_json": events, "summary_json": summary, **self.arrays()}
+        np.savez_compressed(path, **arrays)
         return path
