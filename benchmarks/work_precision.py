@@ -312,9 +312,7 @@ def _on_subset(results: list[dict[str, Any]], names: set[str]) -> list[dict[str,
     return out
 
 
-def _speedups(
-    results: list[dict[str, Any]], method: str, names: set[str]
-) -> list[dict[str, Any]]:
+def _speedups(results: list[dict[str, Any]], method: str, names: set[str]) -> list[dict[str, Any]]:
     """bowlrec vs ``method`` at equal max hook error on the same scenes, per method setting."""
     ours_results = _on_subset(results, names)
     out = []

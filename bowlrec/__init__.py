@@ -16,14 +16,14 @@ __version__ = "0.1.0"
 PHYSICS_VERSION = "frohlich2004-dp54-1"
 
 if TYPE_CHECKING:
-    from .simulate import simulate
+    from .api import simulate
 
 __all__ = ["PHYSICS_VERSION", "__version__", "simulate"]
 
 
 def __getattr__(name: str) -> Any:
     if name == "simulate":
-        from .simulate import simulate
+        from .api import simulate
 
         return simulate
     raise AttributeError(f"module 'bowlrec' has no attribute {name!r}")

@@ -237,20 +237,25 @@ def slip_rate(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, error_model="numpy")
 def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
-    """Unit friction direction u with ds/dt(u) parallel to +u (Newton on the angle from (ux, uy)).
+    """Unit friction direction u with ds/dt(u) parallel to u (Newton on the angle from (ux, uy)).
 
     Right after a rolling ball starts slipping, the slip is tiny and its direction relaxes toward
-    this direction at a rate ~ mu g (1 + R^2/k^2) / |s| (stiff). In that boundary layer bowlrec lets
-    friction act along this slaved direction (the limit |s| -> 0 of the exact dynamics) instead of
-    integrating the stiff relaxation; see ``bowlrec.core.integrator``.
+    this direction at a rate |d(u x ds/dt)/d angle| / |s| (stiff). In that boundary layer bowlrec
+    lets friction act along this slaved direction (the limit |s| -> 0 of the exact dynamics)
+    instead of integrating the stiff relaxation; see ``bowlrec.core.integrator``. Where that rate
+    is negligible (below 1e-3 of |ds/dt|: e.g. a nearly uniform ball, whose slip direction is not
+    stiff and for which every direction is nearly slaved) the root is ill-defined and the start
+    direction is returned unchanged, as it is if Newton wanders more than 1 rad away.
     """
-    phi = math.atan2(uy, ux)
+    phi0 = math.atan2(uy, ux)
+    phi = phi0
     for _ in range(8):
         cx = math.cos(phi)
         cy = math.sin(phi)
         sx, sy = slip_rate(y, par, mu, cx, cy)
         h0 = cx * sy - cy * sx
-        if abs(h0) <= 1e-13 * (abs(sx) + abs(sy) + 1e-300):
+        scale = abs(sx) + abs(sy) + 1e-300
+        if abs(h0) <= 1e-13 * scale:
             break
         d = 1e-7
         c2 = math.cos(phi + d)
@@ -258,14 +263,16 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
         tx, ty = slip_rate(y, par, mu, c2, s2)
         h1 = c2 * ty - s2 * tx
         dh = (h1 - h0) / d
-        if dh == 0.0:
-            break
+        if abs(dh) < 1e-3 * scale:
+            return ux, uy
         step = -h0 / dh
         if step > 0.5:
             step = 0.5
         elif step < -0.5:
             step = -0.5
         phi += step
+        if abs(phi - phi0) > 1.0:
+            return ux, uy
         if abs(step) < 1e-14:
             break
     return math.cos(phi), math.sin(phi)
@@ -276,10 +283,10 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-un
     """Unit direction of the friction force for a sliding phase.
 
     PHASE_SLIDE: along the slip s, continued through s = 0 with the sign that keeps it on the side
-    of the reference direction (so the right-hand side stays smooth across the slide->roll root,
-    which is located by the event s . u_ref = 0). PHASE_LAYER, and any stage of a sliding step
-    where |s| < slip_layer / 2 (there the direction of s is dominated by the stage's truncation
-    error): the slaved direction, warm-started from the reference direction.
+    of the reference direction when the slip points back past the root (so the right-hand side
+    stays smooth across the slide->roll root, which is located by the event s . u_ref = 0).
+    PHASE_LAYER, and any stage of a sliding step where |s| < slip_layer / 2: see
+    :func:`_direction`.
     """
     sx, sy = slip(y, par)
     return _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, math.sqrt(sx * sx + sy * sy))
@@ -287,12 +294,34 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-un
 
 @njit(cache=True, error_model="numpy")
 def _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
-    """:func:`friction_direction` given the slip (sx, sy) and its magnitude s."""
-    if phase == PHASE_LAYER or s < 0.5 * par[P_SLAYER]:
+    """:func:`friction_direction` given the slip (sx, sy) and its magnitude s.
+
+    For a small slip the slaved direction is searched from the slip's own direction (continued
+    through zero like the plain law). It is used only when it lies within 15 degrees of it:
+    where the slip direction is stiff it has relaxed onto the slaved direction, and where it has
+    not (or where the slaved direction is ill-defined, as for a nearly uniform ball whose slip
+    direction is not stiff at all) the plain Coulomb direction is exact. A slip
+    indistinguishable from zero (the start of a re-slip, or a stage landing on the slide->roll
+    root) starts from the reference direction.
+    """
+    s_layer = par[P_SLAYER]
+    if phase == PHASE_LAYER or s < 0.5 * s_layer:
+        if s > 1e-2 * s_layer:
+            ux0 = sx / s
+            uy0 = sy / s
+            if ux0 * ux_ref + uy0 * uy_ref < -0.5:
+                ux0 = -ux0
+                uy0 = -uy0
+            ux, uy = slaved_direction(y, par, mu, ux0, uy0)
+            if ux * ux0 + uy * uy0 < 0.966:
+                return ux0, uy0
+            return ux, uy
         return slaved_direction(y, par, mu, ux_ref, uy_ref)
     ux = sx / s
     uy = sy / s
-    if ux * ux_ref + uy * uy_ref < 0.0:
+    # past the slide->roll root the slip points back along -u_ref: continue smoothly. (A slip
+    # that merely turned by ~90 degrees within a step is not flipped: friction stays Coulomb.)
+    if ux * ux_ref + uy * uy_ref < -0.5:
         return -ux, -uy
     return ux, uy
 

@@ -17,6 +17,8 @@ Events (a function g fires where it goes from >= 0 to < 0 between two dense samp
   small (the slip turned by 90 degrees within a step) just refreshes u_ref. At a real root the
   residual slip (~ the tolerance) is removed by a tiny impulse at the contact point (physically
   consistent: it changes v and w as a friction impulse does);
+* with the paper's rule (``slide_mode`` 1) slide -> roll fires where s . u_ref falls through the
+  threshold; a slip that restarted from zero and never exceeded it rolls again at zero;
 * roll -> slide: the friction reserve mu n - |f| of the rolling ball turns negative (checked at
   every stage and step end, then located on the dense output);
 * loss of contact: the normal force turns negative (outcome "airborne").
@@ -245,13 +247,15 @@ def _event_values(yy, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer
     gv[11] = 1.0
     if phase != PHASE_ROLL:
         sx, sy = slip(yy, par)
-        if slide_mode == 1:
-            gv[8] = math.sqrt(sx * sx + sy * sy) - thr
+        if slide_mode == 1 and phase == PHASE_SLIDE:
+            # the slip along the reference direction falls through the threshold (monotonic
+            # across the root, unlike |s| - thr, which a large step could dip through unseen)
+            gv[8] = sx * uxr + sy * uyr - thr
         else:
             gv[8] = sx * uxr + sy * uyr
         if phase == PHASE_LAYER:
             gv[9] = s_layer - math.sqrt(sx * sx + sy * sy)
-        elif slide_mode == 0:
+        else:
             gv[9] = math.sqrt(sx * sx + sy * sy) - 0.5 * s_layer
 
 
@@ -513,7 +517,11 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
                 uxr = sx / s0
                 uyr = sy / s0
         elif phase == PHASE_LAYER:
-            uxr, uyr = slaved_direction(y, par, mu, uxr, uyr)
+            sx, sy = slip(y, par)
+            s0 = math.sqrt(sx * sx + sy * sy)
+            if s0 > 1e-2 * s_layer:
+                uxr = sx / s0
+                uyr = sy / s0
         st = _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
         nfev += 6
         err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
@@ -665,7 +673,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         elif best_idx == 8:
             sx, sy = slip(y, par)
             s_e = math.sqrt(sx * sx + sy * sy)
-            if slide_mode == 0 and phase == PHASE_SLIDE and s_e > s_accept:
+            turned = s_e > (1.5 * slip_threshold if slide_mode == 1 else s_accept)
+            if phase == PHASE_SLIDE and turned:
                 # not a zero of the slip: its direction turned within the step
                 uxr = sx / s_e
                 uyr = sy / s_e
