@@ -531,3 +531,46 @@ def test_sliding_friction_never_does_positive_work() -> None:
         assert checked.sum() > 100
         power = -np.sum(tr.friction_force_N * tr.slip_mps, axis=1)[checked]
         assert power.max() <= 1e-9, (power.max(), d["delivery"])
+
+
+#: a plain ball (3 mm differential, no offset) slid without spin on mu 0.25; record "summary"
+SLIDE_LATE = {
+    "ball": {
+        "rg_m": [0.0703125, 0.07328758993385127, 0.0703125],
+        "axis_1": [1.0, 0.0, 0.0],
+        "axis_2": [0.0, -0.9243023786324636, 0.38166099205233167],
+    },
+    "lane": {"friction": {"kind": "constant", "mu": 0.25}},
+    "delivery": {"speed_mps": 6.0, "omega_radps": [0.0, 0.0, 0.0], "position_m": [0.0, 0.5]},
+    "options": {"record": "summary"},
+}
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "bug (since dcd7284): at tight tolerances the slide->roll event is sometimes located "
+        "late: SLIDE_LATE at rtol 1e-12 reports slide_m = 3.8852001518 m (t = 0.76803461 s) "
+        "while rtol 1e-11 and 1e-13 agree on 3.8851996002 m (t = 0.76803448 s): 5.5e-7 m / "
+        "1.3e-7 s late, 20x more than the slip layer can explain, with hook and pins time "
+        "unchanged (the ball only sticks meanwhile); the same ball given by a quaternion is "
+        "right, and over 300 random deliveries slide_m is off by up to 1e-6 m at rtol 1e-11 "
+        "and 1e-12 (156126c: <= 3e-8 and 1.2e-10)"
+    ),
+)
+def test_slide_converges_at_tight_tolerances() -> None:
+    """slide_m at rtol 1e-11 and 1e-12 against rtol 1e-13: within what the slip layer (friction
+    along the slaved direction for |s| < s_layer = 1e4 rtol) can shift the slide->roll point,
+    v0 s_layer / (mu g) = 2.4e-8 m at rtol 1e-12 (2.4e-7 m at 1e-11)."""
+
+    def slide(rtol: float) -> float:
+        d = json.loads(json.dumps(SLIDE_LATE))
+        d["options"]["rtol"] = rtol
+        s = simulate(d).summary
+        assert s.outcome == "pins" and s.slide_m is not None
+        return float(s.slide_m)
+
+    ref = slide(1e-13)
+    for rtol in (1e-11, 1e-12):
+        bound = 6.0 * 1e4 * rtol / (0.25 * G)
+        assert abs(slide(rtol) - ref) <= bound, (rtol, slide(rtol) - ref, bound)

@@ -279,22 +279,12 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy")
-def friction_direction(y, par, phase, mu, ux_ref, uy_ref):  # type: ignore[no-untyped-def]
-    """Unit direction of the friction force for a sliding phase.
+def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
+    """Unit direction of the friction force while sliding, given the slip (sx, sy), |s| = s.
 
-    PHASE_SLIDE: along the slip s, continued through s = 0 with the sign that keeps it on the side
-    of the reference direction when the slip points back past the root (so the right-hand side
-    stays smooth across the slide->roll root, which is located by the event s . u_ref = 0).
-    PHASE_LAYER, and any stage of a sliding step where |s| < slip_layer / 2: see
-    :func:`_direction`.
-    """
-    sx, sy = slip(y, par)
-    return _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, math.sqrt(sx * sx + sy * sy))
-
-
-@njit(cache=True, error_model="numpy")
-def _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
-    """:func:`friction_direction` given the slip (sx, sy) and its magnitude s.
+    Above slip_layer / 2 (PHASE_SLIDE): along the slip, continued through s = 0 on the side of
+    the reference direction when the slip points back past the root, so the right-hand side
+    stays smooth across the slide->roll root (located by the event s . u_ref = 0).
 
     For a small slip the slaved direction is searched from the slip's own direction (continued
     through zero like the plain law). It is used only when it lies within 15 degrees of it:
@@ -348,7 +338,7 @@ def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyp
     else:
         sx, sy = slip(y, par)
         margin = math.sqrt(sx * sx + sy * sy)
-        ux, uy = _direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, margin)
+        ux, uy = friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, margin)
         ax, ay, alx, aly, alz, n = slide_accel(y, par, mu, ux, uy)
     dy[2] = ax
     dy[3] = ay
