@@ -7,7 +7,7 @@ from numba import njit
 
 from .dynamics import PHASE_ROLL, PHASE_SLIDE, energy_per_mass, roll_accel, slide_accel, slip
 from .integrator import COL_MU, COL_PHASE, COL_STATE, COL_UX, COL_UY
-from .terms import equation_terms
+from .terms import equation_terms, matvec
 
 
 @njit(cache=True, error_model="numpy")
@@ -60,6 +60,6 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
         if record_terms:
             mats, taus, al = equation_terms(y, par, phase, mu, ux, uy)
             for j in range(6):
-                inertia_alpha[k, j] = mats[j] @ al
+                inertia_alpha[k, j] = matvec(mats[j], al)
                 torques[k, j] = taus[j]
     return normal, friction, slips, energy, alpha, inertia_alpha, torques

@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from .dynamics import P_G, P_K1, P_K2, P_K3, P_R, P_RDX, P_RDY, P_RDZ, PHASE_ROLL
-from .vec import quat_matrix
+from .vec import quat_matrix, solve3
 
 INERTIA_TERMS = ("I_o", "I_dev", "I_Delta_s", "I_DeltaDelta_s", "I_Roll", "I_Delta_r")
 TORQUE_TERMS = (
@@ -36,6 +36,21 @@ TORQUE_TERMS = (
     "tau_Delta_r",
     "tau_DeltaDelta_r",
 )
+
+
+@njit(cache=True, error_model="numpy")
+def matvec(m, v):  # type: ignore[no-untyped-def]
+    """m @ v for a 3x3 matrix and a 3-vector (no BLAS: numba's @ needs scipy)."""
+    out = np.zeros(3)
+    for i in range(3):
+        for j in range(3):
+            out[i] += m[i, j] * v[j]
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _dot(a, b):  # type: ignore[no-untyped-def]
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -65,9 +80,13 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     kdiag[0, 0] = par[P_K1]
     kdiag[1, 1] = par[P_K2]
     kdiag[2, 2] = par[P_K3]
-    inertia = rot @ kdiag @ rot.T
+    inertia = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for m_ in range(3):
+                inertia[i, j] += rot[i, m_] * kdiag[m_, m_] * rot[j, m_]
     rd_body = np.array([par[P_RDX], par[P_RDY], par[P_RDZ]])
-    rd = rot @ rd_body
+    rd = matvec(rot, rd_body)
     w = np.array([y[8], y[9], y[10]])
     zhat = np.array([0.0, 0.0, 1.0])
     rcon = np.array([0.0, 0.0, -R])
@@ -77,9 +96,9 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     for i in range(3):
         mats[0, i, i] = iave
     mats[1] = inertia - mats[0]
-    taus[1] = _crossv(mats[1] @ w, w)
-    w2 = w @ w
-    wr = w @ rd
+    taus[1] = _crossv(matvec(mats[1], w), w)
+    w2 = _dot(w, w)
+    wr = _dot(w, rd)
     if phase != PHASE_ROLL:
         muv = np.array([mu * ux, mu * uy, 1.0])
         ea = np.array([-rd[1], rd[0], 0.0])
@@ -97,11 +116,19 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
         rho = rd + rcon
         mats[4, 0, 0] = R * R
         mats[4, 1, 1] = R * R
-        full = (rho @ rho) * np.eye(3) - np.outer(rho, rho)
+        full = np.zeros((3, 3))
+        for i in range(3):
+            full[i, i] = _dot(rho, rho)
+            for j in range(3):
+                full[i, j] -= rho[i] * rho[j]
         mats[5] = full - mats[4]
         taus[4] = g * _crossv(rd, zhat) + R * (w2 * _crossv(rd, zhat) + wr * _crossv(zhat, w))
         taus[5] = wr * _crossv(w, rd)
     a = mats[0] + mats[1] + mats[2] + mats[3] + mats[4] + mats[5]
     tau = taus[0] + taus[1] + taus[2] + taus[3] + taus[4] + taus[5]
-    alpha = np.linalg.solve(a, tau)
+    al = solve3(
+        a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2],
+        tau[0], tau[1], tau[2],
+    )  # fmt: skip
+    alpha = np.array([al[0], al[1], al[2]])
     return mats, taus, alpha
