@@ -43,18 +43,15 @@ PAPER_DTS = [1e-3, 1e-4]
 TARGETS = {"hook_mm": 0.1, "pocket_deg": 0.001, "slide_mm": 1.0}
 
 
+def _metrics(s: Any) -> dict[str, Any]:
+    """The compared metrics of a bowlrec Summary."""
+    keys = ("outcome", "slide_m", "hook_m", "pocket_deg", "x_end_m", "y_end_m", "time_s")
+    return {k: getattr(s, k) for k in keys}
+
+
 def _reference(plan: Plan) -> dict[str, Any]:
     ref = replace(plan, rtol=1e-12, slip_layer_mps=1e-8, record_mode=RECORD_SUMMARY)
-    s = solve(ref).summary
-    return {
-        "outcome": s.outcome,
-        "slide_m": s.slide_m,
-        "hook_m": s.hook_m,
-        "pocket_deg": s.pocket_deg,
-        "x_end_m": s.x_end_m,
-        "y_end_m": s.y_end_m,
-        "time_s": s.time_s,
-    }
+    return _metrics(solve(ref).summary)
 
 
 def _errors(res: dict[str, Any], ref: dict[str, Any]) -> dict[str, float | None]:
@@ -122,18 +119,10 @@ def _run_bowlrec(plans: list[tuple[str, Plan]], refs: list[dict[str, Any]], repe
         for (name, plan), ref in zip(plans, refs, strict=True):
             p = replace(plan, rtol=rtol, record_mode=RECORD_SUMMARY)
             s = solve(p).summary
-            res = {
-                "outcome": s.outcome,
-                "slide_m": s.slide_m,
-                "hook_m": s.hook_m,
-                "pocket_deg": s.pocket_deg,
-                "x_end_m": s.x_end_m,
-                "y_end_m": s.y_end_m,
-            }
             rows.append(
                 {
                     "scene": name,
-                    "err": _errors(res, ref),
+                    "err": _errors(_metrics(s), ref),
                     "wall_s": _time_bowlrec(p, repeats),
                     "n_rhs": s.n_rhs,
                 }

@@ -362,7 +362,7 @@ def _push_event(ev, nev, t, kind, y, mu, phase):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy")
-def _remove_slip(y, par, orient):  # type: ignore[no-untyped-def]
+def _remove_slip(y, par):  # type: ignore[no-untyped-def]
     """Apply the horizontal contact impulse that makes the slip exactly zero (in place)."""
     sx, sy = slip(y, par)
     if sx == 0.0 and sy == 0.0:
@@ -679,7 +679,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
                 uxr = sx / s_e
                 uyr = sy / s_e
             else:
-                _remove_slip(y, par, orient)
+                _remove_slip(y, par)
                 phase = PHASE_ROLL
                 ev, nev = _push_event(ev, nev, t, EVENT_SLIDE_TO_ROLL, y, mu, phase)
         elif best_idx == 9:

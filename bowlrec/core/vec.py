@@ -10,6 +10,8 @@ import math
 
 from numba import njit
 
+from . import _kernel_cache  # noqa: F401  (drops stale kernel caches first)
+
 
 @njit(cache=True, error_model="numpy")
 def cross(ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
