@@ -1,0 +1,61 @@
+"""Content IDs of runs: a hash of the resolved scene (the Plan) and the physics version.
+
+Two scenes that resolve to the same Plan (the same physical numbers, solver and recording
+settings) under the same physics version have the same ID, so simulating them twice stores one
+run. Names, descriptions and other labels do not enter the hash: they do not change the result.
+Floats are hashed exactly (``float.hex``), so any change of any parameter changes the ID.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from bowlrec.core.plan import Plan
+
+__all__ = ["RUN_ID_LENGTH", "canonical_plan", "run_id"]
+
+#: hex digits kept from the SHA-256 (80 bits: collisions are not a practical concern)
+RUN_ID_LENGTH = 20
+
+
+def _canonical(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return {"shape": list(value.shape), "data": [_canonical(v) for v in value.ravel()]}
+    if isinstance(value, float | np.floating):
+        return float(value).hex()
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if value is None or isinstance(value, str):
+        return value
+    raise TypeError(f"cannot hash a Plan field of type {type(value).__name__}")
+
+
+def canonical_plan(plan: Plan) -> dict[str, Any]:
+    """The Plan's physics-relevant fields as exact, JSON-serializable values (labels dropped)."""
+    return {
+        f.name: _canonical(getattr(plan, f.name))
+        for f in dataclasses.fields(plan)
+        if f.name != "labels"
+    }
+
+
+def run_id(plan: Plan, physics_version: str | None = None) -> str:
+    """The run's content ID: SHA-256 of the canonical Plan and the physics version (hex)."""
+    if physics_version is None:
+        from bowlrec import PHYSICS_VERSION
+
+        physics_version = PHYSICS_VERSION
+    payload = json.dumps(
+        {"physics_version": physics_version, "plan": canonical_plan(plan)},
+        sort_keys=True,
+        separators=(",", ":"),
+    )
+    return hashlib.sha256(payload.encode()).hexdigest()[:RUN_ID_LENGTH]

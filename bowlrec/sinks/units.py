@@ -1,0 +1,60 @@
+"""Units of stored quantities, read off the project's naming convention (``speed_mps`` -> m/s).
+
+Every dataset an archive writes carries a ``units`` attribute taken from here; a name with no
+recognised suffix and not listed as dimensionless is an error, so a new quantity cannot be
+written without deciding its units.
+"""
+
+from __future__ import annotations
+
+__all__ = ["units_for"]
+
+#: name suffix -> units string (longest suffix wins)
+_SUFFIX_UNITS = {
+    "_s": "s",
+    "_m": "m",
+    "_m2": "m^2",
+    "_mm": "mm",
+    "_kg": "kg",
+    "_mps": "m/s",
+    "_mps2": "m/s^2",
+    "_radps": "rad/s",
+    "_radps2": "rad/s^2",
+    "_rpm": "rev/min",
+    "_deg": "deg",
+    "_N": "N",
+    "_Nm": "N m",
+    "_J": "J",
+}
+
+#: quantities without units, with what their numbers mean
+DIMENSIONLESS = {
+    "mu": "friction coefficient",
+    "phase": "0 sliding, 1 rolling",
+    "quaternion_wxyz": "unit quaternion (w, x, y, z), body -> lane frame",
+    "q0": "unit quaternion (w, x, y, z), body -> lane frame at release",
+    "friction_mu": "friction coefficient per grid cell",
+    "rtol": "relative tolerance",
+    "record_mode": "0 summary, 1 steps, 2 rate",
+    "record_terms": "per-term torques recorded (bool)",
+    "slide_to_roll": "0 exact (slip = 0), 1 threshold (paper's rule)",
+    "max_steps": "count",
+    "kind": "event kind",
+    "torque_term": "equation term",
+}
+
+
+def units_for(name: str) -> str:
+    """The units string for a quantity named by the project's convention ("1" if dimensionless).
+
+    Raises KeyError for a name with neither a known unit suffix nor a dimensionless entry.
+    """
+    if name in DIMENSIONLESS:
+        return "1"
+    best = ""
+    for suffix in _SUFFIX_UNITS:
+        if name.endswith(suffix) and len(suffix) > len(best):
+            best = suffix
+    if not best:
+        raise KeyError(f"no units known for quantity {name!r} (name it with a unit suffix)")
+    return _SUFFIX_UNITS[best]

@@ -1,0 +1,400 @@
+"""HDF5 run files and the archive: round trips, content IDs, queries, the ball library,
+durability under kill -9, and the committed format fixture."""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from bowlrec.archive import Archive, ArchiveError, BallNotFoundError, RunNotFoundError, run_id
+from bowlrec.archive.index import IndexError_
+from bowlrec.paper import paper_scene
+from bowlrec.sinks import RunData
+from bowlrec.sinks.hdf5_run import (
+    FORMAT_VERSION,
+    RunFileError,
+    read_run_file,
+    read_run_header,
+    write_run_file,
+)
+from bowlrec.spec import Scene
+
+HERE = Path(__file__).parent
+FIXTURE = HERE / "fixtures" / "archive-v1"
+
+
+def _scene(**delivery: float) -> Scene:
+    """A non-uniform ball with an offset (so every term and orientation is exercised)."""
+    base = paper_scene(16).model_dump(mode="json")
+    base["options"] = {"record": "rate", "record_dt_s": 0.02, "record_terms": True}
+    base["delivery"].update(delivery)
+    return Scene.model_validate(base)
+
+
+@pytest.fixture(scope="module")
+def template_run() -> RunData:
+    import bowlrec
+
+    scene = _scene()
+    return RunData(scene, scene.resolve(), bowlrec.simulate(scene))
+
+
+def _assert_same_trajectory(a, b) -> None:  # type: ignore[no-untyped-def]
+    arrays_a, arrays_b = a.arrays(), b.arrays()
+    assert arrays_a.keys() == arrays_b.keys()
+    for key, arr in arrays_a.items():
+        other = arrays_b[key]
+        assert arr.dtype == other.dtype, key
+        assert arr.shape == other.shape, key
+        assert np.array_equal(arr, other), key  # bit-for-bit, not approximately
+    assert a.events == b.events
+    assert a.summary == b.summary
+
+
+# -- run files -----------------------------------------------------------------------------------
+
+
+def test_run_file_round_trip_is_exact(tmp_path: Path, template_run: RunData) -> None:
+    path = write_run_file(tmp_path / "r.h5", template_run, {"wall_time_s": 0.5})
+    back = read_run_file(path)
+    assert back.scene == template_run.scene
+    _assert_same_trajectory(back.trajectory, template_run.trajectory)
+    assert set(back.trajectory.torques_Nm) == set(template_run.trajectory.torques_Nm)
+    assert back.attrs["format_version"] == FORMAT_VERSION
+    assert back.attrs["wall_time_s"] == 0.5
+
+
+def test_every_dataset_has_units_and_arrays_are_chunked_gzip_shuffle(
+    tmp_path: Path, template_run: RunData
+) -> None:
+    path = write_run_file(tmp_path / "r.h5", template_run, {})
+    seen: list[str] = []
+
+    def visit(name: str, obj: object) -> None:
+        if isinstance(obj, h5py.Dataset):
+            seen.append(name)
+            assert "units" in obj.attrs, name
+            if obj.ndim >= 1 and obj.size > 0 and obj.dtype.kind == "f":
+                assert obj.chunks is not None, name
+                assert obj.compression == "gzip" and obj.shuffle, name
+
+    with h5py.File(path, "r") as f:
+        f.visititems(visit)
+        assert f["trajectory/position_m"].attrs["units"] == "m"
+        assert f["trajectory/velocity_mps"].attrs["units"] == "m/s"
+        assert f["trajectory/torques/tau_dev"].attrs["units"] == "N m"
+        assert f["resolved/inertia_per_mass_m2"].attrs["units"] == "m^2"
+        assert f["events/t_s"].attrs["units"] == "s"
+        # default libver: the file is readable by HDF5 1.10-era tools (superblock v0)
+        assert f.id.get_access_plist().get_libver_bounds()[0] == h5py.h5f.LIBVER_EARLIEST
+    assert len(seen) > 30
+
+
+def test_resolved_parameters_are_the_plan(tmp_path: Path, template_run: RunData) -> None:
+    path = write_run_file(tmp_path / "r.h5", template_run, {})
+    with h5py.File(path, "r") as f:
+        np.testing.assert_array_equal(
+            f["resolved/inertia_per_mass_m2"][()], template_run.plan.inertia_per_mass_m2
+        )
+        np.testing.assert_array_equal(
+            f["resolved/r_delta_body_m"][()], template_run.plan.r_delta_body_m
+        )
+        assert f["resolved/mass_kg"][()] == template_run.plan.mass_kg
+
+
+def test_summary_only_run_round_trips(tmp_path: Path) -> None:
+    import bowlrec
+
+    scene = Scene.model_validate({"options": {"record": "summary"}})
+    run = RunData(scene, scene.resolve(), bowlrec.simulate(scene))
+    back = read_run_file(write_run_file(tmp_path / "s.h5", run, {}))
+    assert back.trajectory.n_samples == 0
+    _assert_same_trajectory(back.trajectory, run.trajectory)
+
+
+def test_unknown_format_versions_are_rejected(tmp_path: Path, template_run: RunData) -> None:
+    path = write_run_file(tmp_path / "r.h5", template_run, {})
+    with h5py.File(path, "a") as f:
+        f.attrs["format_version"] = "2.0"
+    with pytest.raises(RunFileError, match="format version 2.0 is not supported"):
+        read_run_header(path)
+    with h5py.File(tmp_path / "other.h5", "w") as f:
+        f.attrs["format"] = "something-else"
+    with pytest.raises(RunFileError, match="not a bowlrec run file"):
+        read_run_file(tmp_path / "other.h5")
+
+
+def test_failed_write_leaves_nothing(tmp_path: Path, template_run: RunData) -> None:
+    path = tmp_path / "r.h5"
+    with pytest.raises(TypeError):
+        write_run_file(path, template_run, {"bad": object()})
+    assert list(tmp_path.iterdir()) == []
+
+
+# -- archive -------------------------------------------------------------------------------------
+
+
+def test_simulating_the_same_scene_twice_stores_one_run(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    first = archive.simulate(_scene())
+    again = archive.simulate(_scene().model_copy(update={"name": "renamed"}))
+    assert first.added and not again.added
+    assert first.run_id == again.run_id == run_id(_scene().resolve())
+    assert len(archive) == 1
+    assert len(list((tmp_path / "a" / "runs").glob("*/*.h5"))) == 1
+    assert again.trajectory is not None and first.trajectory is not None
+    _assert_same_trajectory(again.trajectory, first.trajectory)
+
+
+def test_run_ids_change_with_any_parameter_and_the_physics_version() -> None:
+    plan = _scene().resolve()
+    assert run_id(plan) == run_id(_scene().resolve())
+    assert run_id(plan) != run_id(_scene(speed_mps=8.000000000000002).resolve())
+    assert run_id(plan) != run_id(plan, physics_version="another")
+    rtol = _scene().model_copy(
+        update={"options": _scene().options.model_copy(update={"rtol": 1e-8})}
+    )
+    assert run_id(plan) != run_id(rtol.resolve())
+
+
+def test_load_returns_what_was_written(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    added = archive.simulate(_scene())
+    stored = archive.load(added.run_id[:8])
+    assert stored.scene == _scene()
+    assert added.trajectory is not None
+    _assert_same_trajectory(stored.trajectory, added.trajectory)
+    assert stored.attrs["physics_version"]
+    assert stored.attrs["solver"] == "integrator"
+    assert stored.attrs["wall_time_s"] > 0
+
+
+def test_queries_filter_by_summary_ranges_outcome_pattern_and_ball(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    entry, created = archive.balls.add("case16-ball", _scene().ball)
+    assert created and entry.version == 1
+    speeds = [7.0, 8.0, 9.0, 10.0]
+    ids = {v: archive.simulate(_scene(speed_mps=v)).run_id for v in speeds}
+    gutter = Scene.model_validate(
+        {"delivery": {"takeoff_angle_deg": 5.0}, "options": {"record": "summary"}}
+    )
+    archive.simulate(gutter)
+    rows = archive.list_runs()
+    assert len(rows) == 5
+    hooks = {r["run_id"]: r["hook_m"] for r in rows}
+    # slower deliveries hook more on this ball (check the filter against the stored numbers)
+    threshold = sorted(hooks[ids[v]] for v in speeds)[1]
+    picked = {r["run_id"] for r in archive.list_runs(where=[f"hook_m>={threshold}"])}
+    assert picked == {rid for rid, h in hooks.items() if h is not None and h >= threshold}
+    assert len(picked) == 3
+    assert [r["outcome"] for r in archive.list_runs(outcome="gutter")] == ["gutter"]
+    assert len(archive.list_runs(pattern="typical")) == 5
+    by_ball = archive.list_runs(ball="case16-ball")
+    assert {r["run_id"] for r in by_ball} == set(ids.values())
+    assert all(r["ball_name"] == "case16-ball" and r["ball_version"] == 1 for r in by_ball)
+    assert len(archive.list_runs(ball="case16-ball@1", where=["speed_mps<8.5"])) == 2
+    ordered = archive.list_runs(order_by="-speed_mps", where=["outcome=pins"])
+    assert [r["speed_mps"] for r in ordered] == pytest.approx(sorted(speeds, reverse=True))
+    with pytest.raises(IndexError_, match="unknown column 'hookk_m'"):
+        archive.list_runs(where=["hookk_m>1"])
+    with pytest.raises(IndexError_, match="is not a number"):
+        archive.list_runs(where=["hook_m>abc"])
+
+
+def test_runs_made_before_the_ball_was_added_are_found_by_spec(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    rid = archive.simulate(_scene()).run_id
+    archive.balls.add("later", _scene().ball)
+    assert [r["run_id"] for r in archive.list_runs(ball="later")] == [rid]
+
+
+def test_remove_export_and_prefix_lookup(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    rid = archive.simulate(_scene()).run_id
+    out = archive.export(rid[:6], tmp_path)
+    assert read_run_file(out).run_id == rid
+    with pytest.raises(RunNotFoundError, match="no run"):
+        archive.load("ffffffff")
+    with pytest.raises(RunNotFoundError, match="not a run ID"):
+        archive.resolve_id("xy")
+    assert archive.remove(rid[:6]) == rid
+    assert len(archive) == 0 and not archive.has_run(rid)
+
+
+def test_reindex_rebuilds_the_index_from_the_run_files(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    ids = {archive.simulate(_scene(speed_mps=v)).run_id for v in (7.0, 8.0)}
+    rows = {r["run_id"]: r for r in archive.list_runs()}
+    (tmp_path / "a" / "index.sqlite").unlink()
+    for extra in ("index.sqlite-wal", "index.sqlite-shm"):
+        (tmp_path / "a" / extra).unlink(missing_ok=True)
+    assert Archive(tmp_path / "a").reindex() == 2
+    again = {r["run_id"]: r for r in Archive(tmp_path / "a").list_runs()}
+    assert again.keys() == ids
+    for rid in ids:
+        assert again[rid] == rows[rid]
+
+
+def test_a_non_archive_directory_is_refused(tmp_path: Path) -> None:
+    (tmp_path / "stuff.txt").write_text("x")
+    with pytest.raises(ArchiveError, match="not empty and is not a bowlrec archive"):
+        Archive(tmp_path)
+    with pytest.raises(ArchiveError, match="no archive.json"):
+        Archive(tmp_path / "new", create=False)
+
+
+# -- ball library ----------------------------------------------------------------------------------
+
+
+def test_ball_library_versions_and_keeps_old_versions(tmp_path: Path) -> None:
+    lib = Archive(tmp_path / "a").balls
+    ball = _scene().ball
+    heavier = ball.model_copy(update={"mass_kg": 7.0})
+    e1, new1 = lib.add("house", ball)
+    e1b, new1b = lib.add("house", ball)
+    e2, new2 = lib.add("house", heavier)
+    assert (e1.version, new1, e1b.version, new1b, e2.version, new2) == (1, True, 1, False, 2, True)
+    assert lib.get("house").ball == heavier
+    assert lib.get("house@1").ball == ball
+    assert [e.version for e in lib.list(all_versions=True)] == [1, 2]
+    assert [e.ref for e in lib.list()] == ["house@2"]
+    lib.remove("house", 1)
+    with pytest.raises(BallNotFoundError, match="no ball 'house@1'"):
+        lib.get("house@1")
+    with pytest.raises(BallNotFoundError):
+        lib.remove("house", 1)
+    with pytest.raises(ValueError, match="ball name"):
+        lib.add("bad@name", ball)
+
+
+def test_ball_library_export_import_round_trip(tmp_path: Path) -> None:
+    lib = Archive(tmp_path / "a").balls
+    ball = _scene().ball
+    lib.add("house", ball)
+    lib.add("house", ball.model_copy(update={"mass_kg": 7.0}))
+    lib.add("spare", Scene().ball, note="plastic")
+    doc = lib.export_json(tmp_path / "balls.json")
+    assert json.loads((tmp_path / "balls.json").read_text()) == doc
+    other = Archive(tmp_path / "b").balls
+    results = other.import_json(tmp_path / "balls.json")
+    assert [added for _, added in results] == [True, True, True]
+    assert [(e.ref, e.sha, e.note) for e in other.list(all_versions=True)] == [
+        (e.ref, e.sha, e.note) for e in lib.list(all_versions=True)
+    ]
+    assert [added for _, added in other.import_json(doc)] == [False, False, False]
+
+
+def test_runs_reference_the_library_ball_they_used(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    archive.balls.add("house", _scene().ball)
+    rid = archive.simulate(_scene()).run_id
+    assert archive.load(rid).ball_ref == "house@1"
+    explicit = archive.simulate(_scene(speed_mps=7.0), ball_ref="house@1").run_id
+    assert archive.row(explicit)["ball_name"] == "house"
+
+
+# -- durability ----------------------------------------------------------------------------------
+
+
+def _kill_writer_once(archive_dir: Path, template: Path, start: int, delay_s: float) -> list[str]:
+    child = subprocess.Popen(
+        [
+            sys.executable,
+            str(HERE / "archive_writer_child.py"),
+            str(archive_dir),
+            str(template),
+            str(start),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert child.stdout is not None
+    assert child.stdout.readline().strip() == "ready"
+    time.sleep(delay_s)
+    os.kill(child.pid, signal.SIGKILL)
+    out, _ = child.communicate(timeout=30)
+    assert child.returncode == -signal.SIGKILL
+    return [line.strip() for line in out.splitlines() if line.strip()]
+
+
+def test_kill_9_mid_write_loses_at_most_the_run_being_written(
+    tmp_path: Path, template_run: RunData
+) -> None:
+    """A writer adding runs back to back (~10-30 ms each) is killed at random moments.
+
+    After every kill, before any repair: the index opens, every run it lists loads with the
+    template's exact arrays, and every run the writer reported done is listed. At most one run
+    (the one in flight) exists beyond the reported ones. Then repair() removes temporaries and
+    indexes a file renamed in place just before the kill.
+    """
+    template = write_run_file(tmp_path / "template.h5", template_run, {})
+    archive_dir = tmp_path / "a"
+    Archive(archive_dir)
+    rng = random.Random(20261121)
+    reported: list[str] = []
+    kills = int(os.environ.get("BOWLREC_KILL_TESTS", "12"))
+    mid_write = 0  # kills that left a partly written temporary behind
+    for k in range(kills):
+        start = len(reported) + 1000 * k
+        parts_before = len(list(archive_dir.rglob("*.part")))
+        reported += _kill_writer_once(archive_dir, template, start, rng.uniform(0.02, 0.6))
+        mid_write += len(list(archive_dir.rglob("*.part"))) > parts_before
+        archive = Archive(archive_dir, create=False)
+        listed = {r["run_id"] for r in archive.list_runs()}
+        assert set(reported) <= listed
+        assert len(listed - set(reported)) <= k + 1  # at most one in-flight run per kill
+        for rid in listed - set(reported) | set(reported[-3:]):
+            _assert_same_trajectory(archive.load(rid).trajectory, template_run.trajectory)
+    assert len(reported) > kills  # the writer got real work done between kills
+    assert mid_write >= kills // 4  # and most kills landed inside a file write
+    archive = Archive(archive_dir, create=False)
+    archive.repair()
+    assert not list(archive_dir.rglob("*.part"))
+    files = {p.stem for p in (archive_dir / "runs").glob("*/*.h5")}
+    assert files == {r["run_id"] for r in archive.list_runs()}
+    for rid in files:
+        read_run_header(archive.run_path(rid))
+
+
+# -- committed fixture -----------------------------------------------------------------------------
+
+
+def test_committed_fixture_archive_still_reads(tmp_path: Path) -> None:
+    """tests/fixtures/archive-v1 was written by format 1.0 (tests/fixtures/make_fixture.py).
+
+    If this fails, the on-disk format changed: bump FORMAT_VERSION, document the change in
+    docs/archive-format.md and keep reading the old version, or decide to drop it explicitly.
+    """
+    import shutil
+
+    copy = shutil.copytree(FIXTURE, tmp_path / "archive")  # reading must not touch the repo
+    archive = Archive(copy, create=False)
+    rows = archive.list_runs(order_by="name")
+    assert [r["name"] for r in rows] == ["fixture-summary", "fixture-trajectory"]
+    assert [e.ref for e in archive.balls.list(all_versions=True)] == ["fixture-ball@1"]
+    for row in rows:
+        stored = archive.load(row["run_id"])
+        assert stored.attrs["format"] == "bowlrec-run"
+        assert stored.attrs["format_version"] == "1.0"
+        assert stored.ball_ref == "fixture-ball@1"
+        assert stored.trajectory.summary.outcome == row["outcome"] == "pins"
+        assert stored.trajectory.summary.hook_m == row["hook_m"]
+        # the stored physics still agrees with today's kernel (tolerance: 1e-6 m of hook, far
+        # above the 1e-9 rtol and far below any physical change)
+        import bowlrec
+
+        again = bowlrec.simulate(stored.scene)
+        assert again.summary.hook_m == pytest.approx(row["hook_m"], abs=1e-6)
+    traj = archive.load(rows[1]["run_id"]).trajectory
+    assert traj.n_samples > 10 and traj.position_m.shape == (traj.n_samples, 3)
+    assert set(traj.torques_Nm) >= {"tau_dev", "I_dev"}
