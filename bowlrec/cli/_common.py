@@ -1,0 +1,119 @@
+"""Helpers shared by the CLI commands: errors, scene loading, the archive option, progress."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
+
+import typer
+
+if TYPE_CHECKING:
+    from bowlrec.archive import Archive
+
+QuietOption = Annotated[
+    bool, typer.Option("--quiet", "-q", help="No progress output (also off when not a terminal).")
+]
+ArchiveOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--archive",
+        "-a",
+        help="Archive directory (default: $BOWLREC_ARCHIVE, the config file's 'archive', or "
+        "~/.local/share/bowlrec/archive).",
+        show_default=False,
+    ),
+]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
+
+
+def interactive(quiet: bool) -> bool:
+    """Show progress only on a terminal and without --quiet."""
+    return not quiet and sys.stderr.isatty()
+
+
+def fail(message: str, code: int = 2) -> NoReturn:
+    typer.echo(f"error: {message}", err=True)
+    raise typer.Exit(code)
+
+
+def load_scene_or_exit(path: Path) -> Any:
+    from pydantic import ValidationError
+
+    from bowlrec.spec import format_validation_error, load_scene
+
+    if not path.exists():
+        fail(f"{path}: no such file")
+    try:
+        return load_scene(path)
+    except ValidationError as err:
+        fail(f"{path}: invalid scene\n{format_validation_error(err)}")
+    except (ValueError, OSError) as err:
+        fail(f"{path}: {err}")
+
+
+def open_archive(path: Path | None, *, create: bool = True) -> Archive:
+    """The archive at ``path`` or the configured default; exits with a clear error."""
+    from bowlrec.archive import Archive, ArchiveError, default_archive_path
+
+    if path is None:
+        try:
+            path, _source = default_archive_path()
+        except ValueError as err:
+            fail(str(err))
+    try:
+        return Archive(path, create=create)
+    except (ArchiveError, OSError) as err:
+        fail(str(err))
+
+
+@contextmanager
+def archive_errors() -> Iterator[None]:
+    """Turn archive lookups that fail (unknown run or ball, bad filter) into clean exits."""
+    from pydantic import ValidationError
+
+    from bowlrec.archive import BallNotFoundError, RunNotFoundError
+    from bowlrec.sinks import SamplesRequiredError
+    from bowlrec.spec import format_validation_error
+
+    try:
+        yield
+    except (RunNotFoundError, BallNotFoundError) as err:
+        fail(str(err), code=1)
+    except ValidationError as err:
+        fail(f"invalid spec\n{format_validation_error(err)}")
+    except (SamplesRequiredError, ValueError) as err:
+        fail(str(err))
+
+
+def with_status(message: str, quiet: bool, fn: Callable[..., Any], *args: Any) -> Any:
+    """Run ``fn(*args)`` under a spinner (on a terminal)."""
+    if not interactive(quiet):
+        return fn(*args)
+    from rich.console import Console
+
+    with Console(stderr=True).status(message):
+        return fn(*args)
+
+
+def summary_json(summary: Any) -> dict[str, Any]:
+    """The summary keys the CLI prints with --json."""
+    d = summary.to_dict()
+    keys = [
+        "outcome",
+        "message",
+        "slide_m",
+        "hook_m",
+        "pocket_deg",
+        "time_s",
+        "x_end_m",
+        "y_end_m",
+        "speed_end_mps",
+        "rev_rate_end_rpm",
+        "n_steps",
+        "n_rhs",
+        "n_events",
+    ]
+    return {k: d[k] for k in keys}

@@ -1,0 +1,269 @@
+"""Scene commands: simulate, paper, validate, schema, examples."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from ._app import app
+from ._common import (
+    ArchiveOption,
+    JsonOption,
+    QuietOption,
+    archive_errors,
+    interactive,
+    load_scene_or_exit,
+    open_archive,
+    summary_json,
+    with_status,
+)
+from ._outputs import (
+    ConnectOption,
+    McapOption,
+    PlotOption,
+    RrdOption,
+    SpawnOption,
+    wants_samples,
+    write_outputs,
+)
+
+
+@app.command()
+def simulate(
+    scene: Annotated[
+        Path | None,
+        typer.Argument(help="Scene file (.json, .yaml, .yml); omitted: the default scene."),
+    ] = None,
+    archive: ArchiveOption = None,
+    no_archive: Annotated[
+        bool, typer.Option("--no-archive", help="Do not store the run in the archive.")
+    ] = False,
+    ball: Annotated[
+        str | None,
+        typer.Option("--ball", help="Use this library ball (NAME or NAME@VERSION) instead."),
+    ] = None,
+    as_json: JsonOption = False,
+    out: Annotated[
+        Path | None, typer.Option("--out", help="Also save the trajectory to a .npz file.")
+    ] = None,
+    mcap: McapOption = None,
+    rrd: RrdOption = None,
+    connect: ConnectOption = None,
+    spawn: SpawnOption = False,
+    plot: PlotOption = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Simulate one delivery, store it in the archive and print its summary.
+
+    The run ID is a content hash: simulating the same scene again reuses the stored run.
+    """
+    from bowlrec.spec import Scene
+
+    scene_obj = load_scene_or_exit(scene) if scene is not None else Scene()
+    needs_samples = wants_samples(out, mcap, rrd, connect, spawn, plot)
+    if needs_samples and scene_obj.options.record == "summary":
+        options = scene_obj.options.model_copy(update={"record": "steps"})
+        scene_obj = scene_obj.model_copy(update={"options": options})
+        if not quiet:
+            typer.echo(
+                "note: recording every step (options.record = 'steps') for the outputs", err=True
+            )
+    store = None if no_archive else open_archive(archive)
+    ball_ref = None
+    with archive_errors():
+        if ball is not None:
+            lib = (store or open_archive(archive)).balls
+            entry = lib.get(ball)
+            scene_obj = scene_obj.model_copy(update={"ball": entry.ball})
+            ball_ref = entry.ref
+        if store is not None:
+            result = with_status(
+                "simulating (first run compiles kernels)",
+                quiet,
+                lambda: store.simulate(scene_obj, ball_ref=ball_ref),
+            )
+            traj, run_id, added = result.trajectory, result.run_id, result.added
+        else:
+            traj = with_status(
+                "simulating (first run compiles kernels)",
+                quiet,
+                _solve_unarchived,
+                scene_obj,
+                needs_samples,
+            )
+            run_id, added = None, False
+        from bowlrec.sinks import RunData
+
+        run = RunData(scene_obj, scene_obj.resolve(), traj, run_id)
+        if out is not None:
+            traj.save_npz(out)
+        lines = write_outputs(run, mcap=mcap, rrd=rrd, connect=connect, spawn=spawn, plot=plot)
+    if as_json:
+        payload = summary_json(traj.summary)
+        payload.update(
+            {
+                "run_id": run_id,
+                "archived": added,
+                "archive": None if store is None else str(store.root),
+            }
+        )
+        typer.echo(json.dumps(payload))
+        return
+    _print_summary(scene_obj.name, traj, out, run_id, added, store)
+    for line in lines:
+        typer.echo(line)
+
+
+def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
+    from dataclasses import replace
+
+    from bowlrec.core.plan import RECORD_SUMMARY
+    from bowlrec.core.solver import solve
+
+    plan = scene.resolve()
+    if not needs_samples:
+        plan = replace(plan, record_mode=RECORD_SUMMARY)  # nothing will read the samples
+    return solve(plan)
+
+
+def _print_summary(
+    name: str, traj: Any, out: Path | None, run_id: str | None, added: bool, store: Any
+) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    s = traj.summary
+    table = Table(title=f"bowlrec: {name}", show_header=False)
+    table.add_row("outcome", f"{s.outcome} ({s.message})")
+    table.add_row("slide", "never rolls" if s.slide_m is None else f"{s.slide_m:.4f} m")
+    if s.hook_m is not None:
+        table.add_row("hook", f"{100 * s.hook_m:.2f} cm")
+        table.add_row("pocket angle", f"{s.pocket_deg:.3f} deg")
+    table.add_row("time", f"{s.time_s:.4f} s")
+    table.add_row("end position", f"x = {s.x_end_m:.4f} m, y = {s.y_end_m:.4f} m")
+    table.add_row("end speed", f"{s.speed_end_mps:.3f} m/s")
+    table.add_row("end rev rate", f"{s.rev_rate_end_rpm:.1f} rpm")
+    table.add_row("events", ", ".join(f"{e.kind}@{e.x_m:.2f}m" for e in traj.events))
+    table.add_row("solver", f"{s.n_steps} steps, {s.n_rhs} right-hand-side evaluations")
+    if run_id is not None:
+        state = "stored" if added else "already archived (reused)"
+        table.add_row("run", f"{run_id} {state} in {store.root}")
+    if out is not None:
+        table.add_row("trajectory", f"{out} ({traj.n_samples} samples)")
+    Console().print(table)
+
+
+@app.command()
+def paper(
+    as_json: Annotated[bool, typer.Option("--json", help="Print JSON rows.")] = False,
+    markdown: Annotated[bool, typer.Option("--markdown", help="Print a Markdown table.")] = False,
+    rtol: Annotated[float | None, typer.Option(help="Integrator tolerance override.")] = None,
+    update_readme: Annotated[
+        Path | None, typer.Option(help="Rewrite the Table III block of this README.")
+    ] = None,
+    quiet: QuietOption = False,
+) -> None:
+    """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
+    from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
+
+    rows = run_with_progress(quiet, lambda cb: run_paper_cases(rtol=rtol, progress=cb))
+    if update_readme is not None:
+        from bowlrec.paper_table import update_readme as _update
+
+        changed = _update(update_readme, markdown_table(rows))
+        typer.echo(f"{update_readme}: {'updated' if changed else 'already up to date'}")
+        return
+    if as_json:
+        out = [
+            {
+                "case": r.paper.case,
+                "paper": {
+                    "slide_m": r.paper.slide_m,
+                    "hook_m": r.paper.hook_m,
+                    "pocket_deg": r.paper.pocket_deg,
+                },
+                "as_written": summary_json(r.as_written),
+                "best_fit": summary_json(r.best_fit),
+                "note": r.note,
+            }
+            for r in rows
+        ]
+        typer.echo(json.dumps(out, indent=2))
+        return
+    if markdown:
+        typer.echo(markdown_table(rows), nl=False)
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="Frohlich (2004) Table III: the paper vs bowlrec (as written, best fit)")
+    for h in HEADER:
+        table.add_column(h.replace(" (", "\n("), justify="right")
+    for cells in table_cells(rows):
+        table.add_row(*cells)
+    console = Console()
+    console.print(table)
+    for key, text in NOTE_TEXT.items():
+        console.print(f"({key}) {text}")
+
+
+def run_with_progress(quiet: bool, work: Any) -> Any:
+    if not interactive(quiet):
+        return work(None)
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    with Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        transient=True,
+    ) as progress:
+        task = progress.add_task("Table III (first run compiles the kernels)", total=18)
+        return work(lambda _case: progress.advance(task))
+
+
+@app.command()
+def schema(
+    out: Annotated[Path, typer.Option(help="Directory for the JSON Schema files.")] = Path(
+        "schemas"
+    ),
+) -> None:
+    """Export the JSON Schemas of the scene models."""
+    from bowlrec.spec.schema_export import export_schemas
+
+    for p in export_schemas(out):
+        typer.echo(str(p))
+
+
+@app.command()
+def examples(
+    out: Annotated[Path, typer.Option(help="Directory for the Table III scene files.")] = Path(
+        "examples/paper"
+    ),
+) -> None:
+    """Write the 18 Table III scenes as JSON scene files."""
+    from bowlrec.paper import write_paper_examples
+
+    for p in write_paper_examples(out):
+        typer.echo(str(p))
+
+
+@app.command()
+def validate(
+    scene: Annotated[Path, typer.Argument(help="Scene file (.json, .yaml, .yml).")],
+) -> None:
+    """Check a scene file and print the resolved physical parameters."""
+    scene_obj = load_scene_or_exit(scene)
+    plan = scene_obj.resolve()
+    typer.echo(f"{scene}: valid scene {scene_obj.name!r}")
+    typer.echo(f"  inertia per mass k^2 (m^2): {list(plan.inertia_per_mass_m2)}")
+    typer.echo(f"  r_Delta body (m): {list(plan.r_delta_body_m)}")
+    typer.echo(f"  q0 (w, x, y, z): {list(plan.q0)}")
+    typer.echo(
+        f"  scalar inertia: {plan.scalar_inertia}, offset: {plan.has_offset}, "
+        f"constant friction: {plan.constant_friction}"
+    )
