@@ -83,7 +83,11 @@ def list_runs(
 
     table = Table(title=f"{len(rows)} run(s) in {store.root}")
     for column in LIST_COLUMNS:
-        table.add_column(column, justify="left" if column in ("run_id", "name") else "right")
+        if column == "run_id":
+            table.add_column(column, no_wrap=True, min_width=10)
+        else:
+            left = column in ("name", "ball", "pattern")
+            table.add_column(column, justify="left" if left else "right", overflow="fold")
     for row in rows:
         table.add_row(*(_cell(row, c) for c in LIST_COLUMNS))
     Console().print(table)

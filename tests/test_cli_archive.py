@@ -1,0 +1,149 @@
+"""The archive through the CLI: simulate -> runs/balls/replay/plot, default locations."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from bowlrec.archive import Archive, default_archive_path
+from bowlrec.cli import app
+
+EXAMPLES = Path(__file__).parents[1] / "examples"
+CASE16 = EXAMPLES / "paper" / "case16.json"
+runner = CliRunner()
+
+
+def _ok(*args: str) -> str:
+    result = runner.invoke(app, list(args))
+    assert result.exit_code == 0, result.output
+    return result.output
+
+
+def _fails(code: int, *args: str) -> str:
+    result = runner.invoke(app, list(args))
+    assert result.exit_code == code, result.output
+    return result.output
+
+
+def _small_scene(tmp_path: Path, speed: float = 8.0) -> Path:
+    doc = json.loads(CASE16.read_text())
+    doc["delivery"]["speed_mps"] = speed
+    doc["options"] = {"record": "rate", "record_dt_s": 0.02}
+    path = tmp_path / f"scene-{speed}.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_simulate_archives_once_per_content(tmp_path: Path) -> None:
+    arch = tmp_path / "arch"
+    first = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", str(arch), "--json"))
+    again = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", str(arch), "--json"))
+    assert first["archived"] is True and again["archived"] is False
+    assert first["run_id"] == again["run_id"]
+    assert first["hook_m"] == again["hook_m"]
+    rows = json.loads(_ok("runs", "list", "-a", str(arch), "--json"))
+    assert [r["run_id"] for r in rows] == [first["run_id"]]
+
+
+def test_simulate_uses_the_default_archive_from_the_environment(tmp_path: Path) -> None:
+    out = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "--json"))
+    path, source = default_archive_path()
+    assert source == "$BOWLREC_ARCHIVE"
+    assert out["archive"] == str(path)
+    assert Archive(path).has_run(out["run_id"])
+
+
+def test_no_archive_stores_nothing(tmp_path: Path) -> None:
+    out = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "--no-archive", "--json"))
+    assert out["run_id"] is None and out["archive"] is None
+    path, _ = default_archive_path()
+    assert not path.exists() or len(Archive(path)) == 0
+
+
+def test_config_file_sets_the_default_archive(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv("BOWLREC_ARCHIVE")
+    config = tmp_path / "config.toml"
+    config.write_text(f'archive = "{tmp_path / "from-config"}"\n')
+    monkeypatch.setenv("BOWLREC_CONFIG", str(config))
+    assert default_archive_path() == (tmp_path / "from-config", f"config {config}")
+    monkeypatch.setenv("BOWLREC_CONFIG", str(tmp_path / "missing.toml"))
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "data"))
+    assert default_archive_path() == (tmp_path / "data" / "bowlrec" / "archive", "default")
+
+
+def test_runs_list_filters_show_export_and_rm(tmp_path: Path) -> None:
+    arch = str(tmp_path / "arch")
+    ids = {
+        v: json.loads(_ok("simulate", str(_small_scene(tmp_path, v)), "-a", arch, "--json"))[
+            "run_id"
+        ]
+        for v in (7.0, 9.0)
+    }
+    fast = json.loads(_ok("runs", "list", "-a", arch, "-w", "speed_mps>8", "--json"))
+    assert [r["run_id"] for r in fast] == [ids[9.0]]
+    table = _ok("runs", "list", "-a", arch)
+    assert ids[7.0][:10] in table and ids[9.0][:10] in table
+    shown = json.loads(_ok("runs", "show", ids[7.0][:8], "-a", arch, "--json"))
+    assert shown["index"]["run_id"] == ids[7.0]
+    assert shown["scene"]["delivery"]["speed_mps"] == 7.0
+    assert [e["kind"] for e in shown["events"]][-1] == "pins"
+    assert shown["provenance"]["format_version"] == "1.0"
+    h5 = tmp_path / "out.h5"
+    _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(h5))
+    assert h5.stat().st_size > 0
+    scene_json = tmp_path / "scene.json"
+    _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(scene_json))
+    resim = json.loads(_ok("simulate", str(scene_json), "-a", arch, "--json"))
+    assert resim["run_id"] == ids[7.0] and resim["archived"] is False
+    assert "unknown suffix" in _fails(2, "runs", "export", ids[7.0], "-a", arch, "--out", "x.txt")
+    _ok("runs", "rm", ids[7.0][:6], "-a", arch)
+    assert "no run" in _fails(1, "runs", "show", ids[7.0], "-a", arch)
+    assert "unknown column" in _fails(2, "runs", "list", "-a", arch, "-w", "nope>1")
+
+
+def test_balls_commands_and_simulating_with_a_library_ball(tmp_path: Path) -> None:
+    arch = str(tmp_path / "arch")
+    assert "house@1 added" in _ok("balls", "add", "house", str(CASE16), "-a", arch)
+    assert "unchanged" in _ok("balls", "add", "house", str(CASE16), "-a", arch)
+    heavier = json.loads(CASE16.read_text())["ball"] | {"mass_kg": 7.0}
+    (tmp_path / "heavier.json").write_text(json.dumps(heavier))
+    assert "house@2 added" in _ok(
+        "balls", "add", "house", str(tmp_path / "heavier.json"), "-a", arch
+    )
+    listed = json.loads(_ok("balls", "list", "--all", "-a", arch, "--json"))
+    assert [(b["name"], b["version"]) for b in listed] == [("house", 1), ("house", 2)]
+    assert json.loads(_ok("balls", "show", "house@1", "-a", arch))["spec"]["mass_kg"] == 6.8
+    out = json.loads(
+        _ok("simulate", str(_small_scene(tmp_path)), "--ball", "house", "-a", arch, "--json")
+    )
+    row = Archive(arch).row(out["run_id"])
+    assert (row["ball_name"], row["ball_version"], row["mass_kg"]) == ("house", 2, 7.0)
+    exported = tmp_path / "lib.json"
+    _ok("balls", "export", str(exported), "-a", arch)
+    other = str(tmp_path / "other")
+    assert _ok("balls", "import", str(exported), "-a", other).count("added") == 2
+    _ok("balls", "rm", "house@1", "-a", arch)
+    assert "no ball 'house@1'" in _fails(1, "balls", "show", "house@1", "-a", arch)
+    assert "give the version" in _fails(2, "balls", "rm", "house", "-a", arch)
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"mass_kg": -1}))
+    assert "mass_kg" in _fails(2, "balls", "add", "bad", str(bad), "-a", arch)
+
+
+def test_archive_commands_refuse_a_missing_archive(tmp_path: Path) -> None:
+    out = _fails(2, "runs", "list", "-a", str(tmp_path / "nowhere"))
+    assert "not a bowlrec archive" in out
+    assert not (tmp_path / "nowhere").exists()
+
+
+@pytest.mark.skipif(os.name != "posix", reason="flock")
+def test_replay_requires_an_output(tmp_path: Path) -> None:
+    arch = str(tmp_path / "arch")
+    rid = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", arch, "--json"))["run_id"]
+    assert "nothing to do" in _fails(2, "replay", rid, "-a", arch)
