@@ -224,10 +224,17 @@ def plot(
     ),
     archive: ArchiveOption = None,
     title: Annotated[str | None, typer.Option(help="Figure title.")] = None,
+    exaggerate: Annotated[
+        float | None, typer.Option(help="Lane-width exaggeration (default 4.5, as the paper).")
+    ] = None,
+    series: Annotated[
+        Path | None,
+        typer.Option(help="Also write speed/rev rate/slip/mu vs time of the first run here."),
+    ] = None,
 ) -> None:
     """Paper-style figure of one or several runs overlaid (lane, oil, paths, rotation axes)."""
     try:
-        from bowlrec.sinks.plot import plot_runs
+        from bowlrec.sinks.plot import plot_runs, plot_series
     except ImportError as err:
         fail(f"{err.name} is not installed; install it with: pip install 'bowlrec[plot]'")
     data = []
@@ -239,7 +246,9 @@ def plot(
             else:
                 store = _open(archive, create=False)
                 data.append(store.run_data(store.resolve_id(item)))
-        typer.echo(str(plot_runs(data, out, title=title)))
+        typer.echo(str(plot_runs(data, out, title=title, exaggerate=exaggerate)))
+        if series is not None:
+            typer.echo(str(plot_series(data[0], series)))
 
 
 def _simulated(scene: Any) -> Any:
