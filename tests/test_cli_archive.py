@@ -147,3 +147,14 @@ def test_replay_requires_an_output(tmp_path: Path) -> None:
     arch = str(tmp_path / "arch")
     rid = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", arch, "--json"))["run_id"]
     assert "nothing to do" in _fails(2, "replay", rid, "-a", arch)
+
+
+def test_demo_archives_table3_and_writes_replay_files(tmp_path: Path) -> None:
+    arch, out = str(tmp_path / "arch"), tmp_path / "demo"
+    first = _ok("demo", "-a", arch, "-o", str(out), "--record-dt-s", "0.02")
+    assert "18 Table III runs" in first and "(18 new, 0 already archived)" in first
+    for name in ("fig6-cases-9-10-14-16.png", "case16.mcap", "case16.rrd"):
+        assert (out / name).stat().st_size > 10_000, name
+    assert len(Archive(arch)) == 18
+    again = _ok("demo", "-a", arch, "-o", str(out), "--record-dt-s", "0.02")
+    assert "(0 new, 18 already archived)" in again

@@ -1,0 +1,123 @@
+"""``bowlrec demo``: the paper's Table III into the archive, with replay files to open."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from ._app import app
+from ._common import ArchiveOption, QuietOption, interactive, open_archive
+
+#: the paper's Fig. 6 comparison; case 16 is written to MCAP and rerun
+FIG6_CASES = (9, 10, 14, 16)
+REPLAY_CASE = 16
+
+
+def _scenes(record_dt_s: float) -> list[Any]:
+    from bowlrec.paper import TABLE_III, paper_scene
+
+    scenes = []
+    for case in range(1, len(TABLE_III) + 1):
+        scene = paper_scene(case)
+        options = scene.options.model_copy(update={"record": "rate", "record_dt_s": record_dt_s})
+        scenes.append(scene.model_copy(update={"options": options}))
+    return scenes
+
+
+@app.command()
+def demo(
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Directory for the figure and replay files.")
+    ] = Path("bowlrec-demo"),
+    archive: ArchiveOption = None,
+    record_dt_s: Annotated[
+        float, typer.Option(help="Sampling interval of the stored runs (s).")
+    ] = 0.005,
+    quiet: QuietOption = False,
+) -> None:
+    """Simulate the paper's 18 Table III cases into the archive; write Fig. 6, MCAP and .rrd.
+
+    Runs already in the archive are reused (content IDs), so a second demo is fast.
+    """
+    from bowlrec.sinks import RunData
+
+    from ._outputs import write_outputs
+
+    store = open_archive(archive)
+    scenes = _scenes(record_dt_s)
+    results = _simulate_all(store, scenes, quiet)
+    added = sum(r.added for r in results)
+    typer.echo(
+        f"{len(results)} Table III runs in {store.root} ({added} new, "
+        f"{len(results) - added} already archived)"
+    )
+    from bowlrec.paper import TABLE_III
+
+    for paper, res in zip(TABLE_III, results, strict=True):
+        s = res.trajectory.summary
+        hook = "-" if s.hook_m is None else f"{100 * s.hook_m:5.1f} cm"
+        slide = "no roll" if s.slide_m is None else f"{s.slide_m:5.2f} m"
+        p_slide = "no roll" if paper.slide_m is None else f"{paper.slide_m:5.2f} m"
+        typer.echo(
+            f"  case {paper.case:2d}  {res.run_id[:10]}  slide {slide:>8} hook {hook:>8}"
+            f"   (paper: slide {p_slide:>8} hook {100 * paper.hook_m:5.1f} cm)"
+        )
+    out.mkdir(parents=True, exist_ok=True)
+    fig6 = [
+        RunData(scenes[c - 1], scenes[c - 1].resolve(), results[c - 1].trajectory)
+        for c in FIG6_CASES
+    ]
+    replay = results[REPLAY_CASE - 1]
+    replay_run = RunData(
+        scenes[REPLAY_CASE - 1], scenes[REPLAY_CASE - 1].resolve(), replay.trajectory, replay.run_id
+    )
+    lines = []
+    if _installed("matplotlib"):
+        from bowlrec.sinks.plot import plot_runs
+
+        lines.append(f"plot: {plot_runs(fig6, out / 'fig6-cases-9-10-14-16.png')}")
+    else:
+        lines.append("plot: skipped (pip install 'bowlrec[plot]')")
+    if _installed("foxglove") and _installed("mcap"):
+        lines += write_outputs(replay_run, mcap=out / f"case{REPLAY_CASE}.mcap")
+    else:
+        lines.append("MCAP: skipped (pip install 'bowlrec[mcap]')")
+    if _installed("rerun"):
+        lines += write_outputs(replay_run, rrd=out / f"case{REPLAY_CASE}.rrd")
+    else:
+        lines.append("rerun: skipped (pip install 'bowlrec[rerun]')")
+    for line in lines:
+        typer.echo(line)
+    typer.echo(
+        f"next: bowlrec runs list   |   bowlrec replay {replay.run_id[:10]} --rrd case16.rrd"
+    )
+
+
+def _installed(module: str) -> bool:
+    from importlib.util import find_spec
+
+    return find_spec(module) is not None
+
+
+def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:
+    if not interactive(quiet):
+        return [store.simulate(s) for s in scenes]
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    results = []
+    with Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        transient=True,
+    ) as progress:
+        task = progress.add_task(
+            "Table III into the archive (first run compiles)", total=len(scenes)
+        )
+        for scene in scenes:
+            results.append(store.simulate(scene))
+            progress.advance(task)
+    return results
