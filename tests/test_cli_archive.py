@@ -158,3 +158,64 @@ def test_demo_archives_table3_and_writes_replay_files(tmp_path: Path) -> None:
     assert len(Archive(arch)) == 18
     again = _ok("demo", "-a", arch, "-o", str(out), "--record-dt-s", "0.02")
     assert "(0 new, 18 already archived)" in again
+
+
+def test_runs_export_several_runs_to_one_mcap(tmp_path: Path) -> None:
+    from bowlrec.sinks.mcap_file import read_mcap_positions
+
+    arch = str(tmp_path / "arch")
+    ids = [
+        json.loads(_ok("simulate", str(_small_scene(tmp_path, v)), "-a", arch, "--json"))["run_id"]
+        for v in (7.0, 9.0)
+    ]
+    out = tmp_path / "batch.mcap"
+    assert "(2 runs)" in _ok("runs", "export", *ids, "-a", arch, "--out", str(out))
+    for rid in ids:
+        _, pos, _ = read_mcap_positions(out, run=rid)
+        assert (pos == Archive(arch).load(rid).trajectory.position_m).all()
+    assert "only be exported to one .mcap" in _fails(
+        2, "runs", "export", *ids, "-a", arch, "--out", str(tmp_path / "x.rrd")
+    )
+
+
+def test_replay_and_simulate_write_every_format(tmp_path: Path) -> None:
+    import numpy as np
+
+    from bowlrec.sinks.mcap_file import read_mcap_positions
+    from bowlrec.sinks.rerun_recording import read_rrd_positions
+
+    arch = str(tmp_path / "arch")
+    rid = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", arch, "--json"))["run_id"]
+    files = {k: tmp_path / f"replay.{k}" for k in ("rrd", "mcap", "png")}
+    _ok(
+        "replay", rid[:8], "-a", arch,
+        "--rrd", str(files["rrd"]), "--mcap", str(files["mcap"]), "--plot", str(files["png"]),
+    )  # fmt: skip
+    traj = Archive(arch).load(rid).trajectory
+    _, pos_mcap, _ = read_mcap_positions(files["mcap"])
+    assert np.array_equal(pos_mcap, traj.position_m)
+    _, pos_rrd = read_rrd_positions(files["rrd"])
+    np.testing.assert_allclose(pos_rrd, traj.position_m, atol=1e-5)  # rerun stores float32
+    assert files["png"].read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # a summary-only scene is re-recorded every step when an output needs samples
+    summary_only = json.loads(CASE16.read_text()) | {"options": {"record": "summary"}}
+    (tmp_path / "summary.json").write_text(json.dumps(summary_only))
+    result = runner.invoke(
+        app,
+        [
+            "simulate",
+            str(tmp_path / "summary.json"),
+            "-a",
+            arch,
+            "--mcap",
+            str(tmp_path / "s.mcap"),
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert "recording every step" in result.output
+    assert (tmp_path / "s.mcap").stat().st_size > 0
+    # an archived summary-only run cannot be replayed: clear error, exit 2
+    rid2 = json.loads(_ok("simulate", str(tmp_path / "summary.json"), "-a", arch, "--json"))[
+        "run_id"
+    ]
+    assert "options.record = 'summary'" in _fails(2, "replay", rid2, "-a", arch, "--rrd", "x.rrd")

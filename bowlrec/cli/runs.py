@@ -131,7 +131,10 @@ def show(
 
 @runs_app.command("export")
 def export(
-    run: Annotated[str, typer.Argument(help="Run ID (or a unique prefix).")],
+    runs: Annotated[
+        list[str],
+        typer.Argument(help="Run ID(s) or unique prefixes; several only for a batch .mcap."),
+    ],
     out: Annotated[
         Path,
         typer.Option(
@@ -142,11 +145,24 @@ def export(
     ],
     archive: ArchiveOption = None,
 ) -> None:
-    """Export one run as its HDF5 file, MCAP, rerun recording, scene JSON or figure."""
+    """Export a run as its HDF5 file, MCAP, rerun recording, scene JSON or figure.
+
+    Several runs go into one .mcap (each under its own topic prefix, lanes side by side).
+    """
     store = _open(archive, create=False)
     suffix = out.suffix.lower()
+    if len(runs) > 1 and suffix != ".mcap":
+        fail(f"several runs can only be exported to one .mcap, not {suffix or 'no suffix'}")
+    run = runs[0]
     with archive_errors():
-        if suffix in (".h5", ".hdf5"):
+        if len(runs) > 1:
+            try:
+                from bowlrec.sinks.mcap_file import write_mcap_batch
+            except ImportError as err:
+                fail(f"{err.name} is not installed; install it with: pip install 'bowlrec[mcap]'")
+            batch = [store.run_data(store.resolve_id(r)) for r in runs]
+            typer.echo(f"MCAP: {write_mcap_batch(batch, out)} ({len(batch)} runs)")
+        elif suffix in (".h5", ".hdf5"):
             typer.echo(str(store.export(run, out)))
         elif suffix == ".json":
             stored = store.load(store.resolve_id(run))
