@@ -186,13 +186,17 @@ class Archive:
         )
 
     def remove(self, run_id: str) -> str:
-        """Delete a run (index row first, then its file); returns the full run ID."""
+        """Delete a run (its file, then its index row); returns the full run ID.
+
+        A kill between the two steps leaves a row without a file, which :meth:`repair` drops, so
+        a removed run never comes back.
+        """
         rid = self.resolve_id(run_id)
         with self.writer_lock():
-            with connect(self.index_path) as con:
-                con.execute("DELETE FROM runs WHERE run_id = ?", (rid,))
             with contextlib.suppress(FileNotFoundError):
                 self.run_path(rid).unlink()
+            with connect(self.index_path) as con:
+                con.execute("DELETE FROM runs WHERE run_id = ?", (rid,))
         return rid
 
     def repair(self) -> dict[str, int]:
