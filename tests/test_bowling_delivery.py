@@ -144,8 +144,8 @@ def test_axis_angles_give_the_documented_omega() -> None:
         ((0.0, 0.0, "left"), (0.0, w, 0.0)),
         ((90.0, 0.0, "right"), (-w, 0.0, 0.0)),  # side roll along -x hooks left
         ((90.0, 0.0, "left"), (w, 0.0, 0.0)),  # ... and along +x hooks right
-        ((0.0, 90.0, "right"), (0.0, 0.0, -w)),  # PAP (right end, -omega) raised: omega down
-        ((0.0, 90.0, "left"), (0.0, 0.0, w)),
+        ((0.0, 90.0, "right"), (0.0, 0.0, w)),  # a right-hander spins counter-clockwise
+        ((0.0, 90.0, "left"), (0.0, 0.0, -w)),  # seen from above, a left-hander clockwise
     ]
     for (rot, tilt, hand), expected in cases:
         got = omega_from_axis(300.0, rot, tilt, 0.0, hand)  # type: ignore[arg-type]

@@ -21,16 +21,23 @@ Conventions (lane frame: x toward the pins, y from the RIGHT gutter toward the l
 * **Axis of rotation** (unit vector ``a`` along omega, expressed in the *travel frame*: t along
   the release velocity, n = z x t to the left of the travel, z up), for a right-hander::
 
-      omega = |omega| (-sin(rot) cos(tilt) t + cos(rot) cos(tilt) n - sin(tilt) z)
+      omega = |omega| (-sin(rot) cos(tilt) t + cos(rot) cos(tilt) n + sin(tilt) z)
 
   - ``axis_rotation_deg`` (rot): 0 = end over end (forward roll: omega points to the left of the
     travel, the contact point is at rest when v = |omega| R), 90 = side roll. **Positive makes
     the ball hook toward higher boards**: for a right-hander omega gains a component along -t
     (the ball turns counter-clockwise seen from behind), the contact point slides toward the right
     gutter and friction pushes the ball to the left.
-  - ``axis_tilt_deg`` (tilt): elevation of the rotation axis above the lane plane, **positive
-    when the positive axis point (PAP, the axis end on the bowling hand's side, -omega for a
-    right-hander) is raised**; the track is then a smaller ring on the negative side.
+  - ``axis_tilt_deg`` (tilt): angle of the rotation axis to the lane plane, **positive when a
+    right-hander's ball spins counter-clockwise seen from above** (omega_z > 0; a left-hander's
+    clockwise): the fingers leave the ball on its bowling-hand side and turn that side forward
+    (fingers at the right side moving toward +x give omega along +z), which is the spin of the
+    paper's Table III combination case (omega 15 deg above horizontal, hooking left). The
+    positive axis point (PAP, the axis end on the bowling hand's side, -omega for a
+    right-hander) then sits below the horizontal at release, and the track is a smaller ring
+    closer to it (90 - tilt deg away). Note: /work/shared/domain-notes.md section 3.4 (an own
+    derivation there, "verify with tests") takes the PAP as the raised end; the spin
+    direction above decided against it.
   - A left-hander is the exact mirror image through the x-z plane: rotation, tilt, launch angle
     and boards keep their numbers and meaning, and the physical state is mirrored
     (:func:`mirror_delivery`).
@@ -109,7 +116,7 @@ def omega_from_axis(
     travel: Vec3 = (
         -w * math.sin(rot) * math.cos(tilt),
         w * math.cos(rot) * math.cos(tilt),
-        -w * math.sin(tilt),
+        w * math.sin(tilt),
     )
     if handedness == "left":
         travel = mirror_omega(travel)
@@ -126,7 +133,7 @@ def axis_angles_deg(omega: Vec3, heading_deg: float, handedness: Handedness) -> 
     if handedness == "left":
         a, b, c = mirror_omega((a, b, c))
     rotation = math.degrees(math.atan2(-a, b))
-    tilt = math.degrees(math.atan2(-c, math.hypot(a, b)))
+    tilt = math.degrees(math.atan2(c, math.hypot(a, b)))
     return rotation + 0.0, tilt + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
@@ -175,8 +182,9 @@ class BowlerDelivery(SpecModel):
         ge=-90.0,
         le=90.0,
         description=(
-            "Axis tilt (deg) in [-90, 90]: elevation of the rotation axis above the lane plane, "
-            "positive when the positive axis point (bowling-hand side) is raised."
+            "Axis tilt (deg) in [-90, 90]: angle of the rotation axis to the lane plane, "
+            "positive when the ball spins counter-clockwise seen from above for a right-hander "
+            "(clockwise for a left-hander), as a bowler's fingers turn it."
         ),
     )
     laydown_board: FiniteFloat = Field(

@@ -7,7 +7,11 @@ Three kinds, chosen by the field ``kind``:
   they overlap; zones may extend beyond the lane; a zone covers x in [x_min_m, x_max_m) and
   y in [y_min_m, y_max_m);
 * ``typical``: the paper's Fig. 4 pattern: oil (``mu_oil``) over the central
-  ``oil_width_fraction`` of the width for x < ``oil_length_m``, dry (``mu_dry``) elsewhere.
+  ``oil_width_fraction`` of the width for x < ``oil_length_m``, dry (``mu_dry``) elsewhere;
+* ``grid``: an explicit piecewise-constant map in the grid convention of
+  :mod:`bowlrec.spec.friction_grid` (sorted break points ``x_edges_m``, ``y_edges_m`` and one mu
+  per cell, the outer cells unbounded), e.g. an oil pattern turned into friction by
+  :func:`bowlrec.bowling.oil_friction.pattern_friction`.
 """
 
 from __future__ import annotations
@@ -18,7 +22,14 @@ from pydantic import Field, ValidationInfo, field_validator
 
 from ._base import FiniteFloat, NonNegativeFloat, PositiveFloat, SpecModel, fmt, spec_error
 
-__all__ = ["ConstantFriction", "Friction", "TypicalFriction", "Zone", "ZoneFriction"]
+__all__ = [
+    "ConstantFriction",
+    "Friction",
+    "GridFriction",
+    "TypicalFriction",
+    "Zone",
+    "ZoneFriction",
+]
 
 
 class ConstantFriction(SpecModel):
@@ -81,5 +92,73 @@ class TypicalFriction(SpecModel):
     )
 
 
+def _check_increasing(name: str, edges: list[float]) -> None:
+    """Raise a spec error unless ``edges`` is strictly increasing."""
+    for k in range(1, len(edges)):
+        if not edges[k - 1] < edges[k]:
+            raise spec_error(
+                f"{name}[{k}] = {fmt(edges[k])} must be > {name}[{k - 1}] = "
+                f"{fmt(edges[k - 1])} (break points must be strictly increasing)"
+            )
+
+
+class GridFriction(SpecModel):
+    """An explicit piecewise-constant friction map (m; mu dimensionless).
+
+    Cell (i, j) covers x in [x_edges_m[i-1], x_edges_m[i]) and y in [y_edges_m[j-1],
+    y_edges_m[j]); the first and last cells along each axis are unbounded. So ``mu`` has
+    len(x_edges_m) + 1 rows (x cells) of len(y_edges_m) + 1 entries (y cells); ``mu[0][0]`` is
+    the cell with the smallest x and y (at the foul line, at the right gutter).
+    """
+
+    kind: Literal["grid"] = "grid"
+    x_edges_m: list[FiniteFloat] = Field(
+        default_factory=list,
+        description="Break points along the lane (m from the foul line), strictly increasing.",
+    )
+    y_edges_m: list[FiniteFloat] = Field(
+        default_factory=list,
+        description="Break points across the lane (m from the right gutter), strictly increasing.",
+    )
+    mu: list[list[NonNegativeFloat]] = Field(
+        description=(
+            "Friction per cell (>= 0): len(x_edges_m) + 1 rows of len(y_edges_m) + 1 values; "
+            "mu[i][j] is the cell after x_edges_m[i-1] and after y_edges_m[j-1]."
+        )
+    )
+    source: str | None = Field(
+        default=None, description="Free text: where the map comes from (e.g. an oil pattern)."
+    )
+
+    @field_validator("x_edges_m", "y_edges_m")
+    @classmethod
+    def _edges_increasing(cls, v: list[float], info: ValidationInfo) -> list[float]:
+        """Break points strictly increasing."""
+        _check_increasing(info.field_name or "edges", v)
+        return v
+
+    @field_validator("mu")
+    @classmethod
+    def _mu_shape(cls, v: list[list[float]], info: ValidationInfo) -> list[list[float]]:
+        """One row per x cell, one value per y cell."""
+        xe, ye = info.data.get("x_edges_m"), info.data.get("y_edges_m")
+        if xe is None or ye is None:  # already reported on the edges
+            return v
+        if len(v) != len(xe) + 1:
+            raise spec_error(
+                f"mu has {len(v)} rows; it must have len(x_edges_m) + 1 = {len(xe) + 1} "
+                "(one row per x cell)"
+            )
+        for i, row in enumerate(v):
+            if len(row) != len(ye) + 1:
+                raise spec_error(
+                    f"mu[{i}] has {len(row)} values; it must have len(y_edges_m) + 1 = "
+                    f"{len(ye) + 1} (one value per y cell)"
+                )
+        return v
+
+
 #: any friction map, discriminated by ``kind``
-Friction = Annotated[ConstantFriction | ZoneFriction | TypicalFriction, Field(discriminator="kind")]
+Friction = Annotated[
+    ConstantFriction | ZoneFriction | TypicalFriction | GridFriction, Field(discriminator="kind")
+]

@@ -16,7 +16,14 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from .friction import ConstantFriction, Friction, TypicalFriction, Zone, ZoneFriction
+from .friction import (
+    ConstantFriction,
+    Friction,
+    GridFriction,
+    TypicalFriction,
+    Zone,
+    ZoneFriction,
+)
 
 __all__ = ["FrictionGrid", "build_friction_grid", "mu_at", "simplify_grid"]
 
@@ -89,6 +96,8 @@ def build_friction_grid(friction: Friction, width_m: float) -> FrictionGrid:
         return _zone_grid(friction.default_mu, friction.zones)
     if isinstance(friction, TypicalFriction):
         return _typical_grid(friction, width_m)
+    if isinstance(friction, GridFriction):
+        return simplify_grid(friction.x_edges_m, friction.y_edges_m, np.array(friction.mu))
     raise TypeError(f"unknown friction model {type(friction).__name__}")
 
 

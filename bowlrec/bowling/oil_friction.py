@@ -1,0 +1,212 @@
+"""Oil depth -> friction: an explicit, calibratable mapping mu(film thickness, coverstock), and
+the friction map of an oil pattern in the form the kernel evaluates (a piecewise-constant grid,
+:class:`~bowlrec.spec.friction.GridFriction`).
+
+**Oil depth** is the film thickness h (µm) of a grid cell: its oil volume over its area,
+h = V / (dx dy) (1 µL per m^2 = 0.001 µm; 1 µL on a board-foot of a 41.5 in lane, 0.3048 m x
+27.03 mm, is 0.1214 µm). No published friction-vs-oil curve is known (domain notes §6.3), so the
+mapping is a two-level model with an optional linear ramp, every number a parameter:
+
+    s(h) = 0                      if h <= dry_at_or_below_um
+         = 1                      if h >= oiled_at_or_above_um (and h > dry_at_or_below_um)
+         = (h - h0) / (h1 - h0)   in between (h0 = dry_at_or_below_um, h1 = oiled_at_or_above_um)
+    mu(h, cover) = (1 - s(h)) dry_factor[cover] mu_dry + s(h) oil_factor[cover] mu_oil
+
+**Defaults reproduce the paper's two levels** (Frohlich 2004: 0.04 on oil, 0.20 dry): h0 = h1 = 0
+(any oil is "oiled"), every coverstock factor 1, so a cell is 0.04 if it carries oil and 0.20 if
+not, whatever the coverstock. Coverstock factors are for calibration (no published values; the
+Ball Motion Study names the cover as the biggest factor).
+
+**Positions outside the pattern's grid**: dry beyond the oil (x past its end, boards without
+oil); behind the foul line (x < 0) and beyond the gutters (y < 0, y > width) the cells at the
+lane's edge continue, so the lane's boundary adds no break point; break points at or beyond
+the head pin (x >= length_m) are dropped (the run ends there). The grid is then minimal
+(:func:`~bowlrec.spec.friction_grid.simplify_grid`): under the default mapping a pattern has
+only as many break points as its oiled/dry boundary needs.
+"""
+
+from __future__ import annotations
+
+from typing import Literal, get_args
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import Field, ValidationInfo, field_validator
+
+from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, fmt, spec_error
+from bowlrec.spec.friction import GridFriction
+from bowlrec.spec.friction_grid import simplify_grid
+from bowlrec.spec.lane import Lane
+
+from .oil import KegelPattern, OilGrid, RectanglePattern, oil_grid
+from .units import BOARDS, FT_M, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
+
+__all__ = [
+    "COVERSTOCKS",
+    "Coverstock",
+    "OilFrictionMapping",
+    "film_thickness_um",
+    "mirror_friction",
+    "mu_of_film",
+    "oiled_fraction",
+    "pattern_friction",
+    "pattern_lane",
+]
+
+Array = NDArray[np.float64]
+
+#: coverstock classes (domain notes §8)
+Coverstock = Literal[
+    "polyester", "urethane", "reactive_solid", "reactive_pearl", "reactive_hybrid", "particle"
+]
+COVERSTOCKS: tuple[str, ...] = get_args(Coverstock)
+
+_USBC_WIDTH_M = LANE_WIDTH_IN * IN_M
+_LANE_LENGTH_M = LANE_LENGTH_FT * FT_M
+
+
+class OilFrictionMapping(SpecModel):
+    """mu(film thickness, coverstock); see the module docstring for the formula. The defaults
+    give the paper's two levels: 0.04 wherever there is oil, 0.20 elsewhere."""
+
+    mu_dry: NonNegativeFloat = Field(default=0.20, description="Friction on a dry lane (>= 0).")
+    mu_oil: NonNegativeFloat = Field(default=0.04, description="Friction on full oil (>= 0).")
+    dry_at_or_below_um: NonNegativeFloat = Field(
+        default=0.0, description="Film thickness (µm) at or below which the lane is dry (>= 0)."
+    )
+    oiled_at_or_above_um: NonNegativeFloat = Field(
+        default=0.0,
+        description="Film thickness (µm) from which the lane is fully oiled (>= the dry one); "
+        "mu is linear in between.",
+    )
+    dry_factor: dict[Coverstock, PositiveFloat] = Field(
+        default_factory=dict, description="Per coverstock: multiplies mu_dry (1 if absent)."
+    )
+    oil_factor: dict[Coverstock, PositiveFloat] = Field(
+        default_factory=dict, description="Per coverstock: multiplies mu_oil (1 if absent)."
+    )
+
+    @field_validator("oiled_at_or_above_um")
+    @classmethod
+    def _ramp_ordered(cls, v: float, info: ValidationInfo) -> float:
+        """oiled_at_or_above_um >= dry_at_or_below_um."""
+        lo = info.data.get("dry_at_or_below_um")
+        if lo is not None and v < lo:
+            raise spec_error(
+                f"oiled_at_or_above_um = {fmt(v)} must be >= dry_at_or_below_um = {fmt(lo)} "
+                "(the lane cannot be fully oiled below the film at which it is dry)"
+            )
+        return v
+
+    def levels(self, coverstock: Coverstock | None = None) -> tuple[float, float]:
+        """(mu_dry, mu_oil) for a coverstock (None: no factor)."""
+        if coverstock is None:
+            return self.mu_dry, self.mu_oil
+        dry = self.dry_factor.get(coverstock, 1.0) * self.mu_dry
+        return dry, self.oil_factor.get(coverstock, 1.0) * self.mu_oil
+
+
+def oiled_fraction(film_um: ArrayLike, mapping: OilFrictionMapping) -> Array:
+    """s(h) in [0, 1]: 0 dry, 1 fully oiled (module docstring)."""
+    h = np.asarray(film_um, dtype=np.float64)
+    h0, h1 = mapping.dry_at_or_below_um, mapping.oiled_at_or_above_um
+    if h1 == h0:
+        return (h > h0).astype(np.float64)
+    return np.clip((h - h0) / (h1 - h0), 0.0, 1.0)
+
+
+def mu_of_film(
+    film_um: ArrayLike,
+    mapping: OilFrictionMapping | None = None,
+    coverstock: Coverstock | None = None,
+) -> Array:
+    """Friction of film thicknesses (µm; a scalar or an array) for a coverstock."""
+    m = mapping or OilFrictionMapping()
+    dry, oil = m.levels(coverstock)
+    s = oiled_fraction(np.asarray(film_um, dtype=np.float64), m)
+    return dry * (1.0 - s) + oil * s  # exactly mu_dry at s = 0 and mu_oil at s = 1
+
+
+def film_thickness_um(grid: OilGrid, lane_width_m: float) -> Array:
+    """Film thickness (µm) of every cell of an oil grid on a lane ``lane_width_m`` wide (m)."""
+    dx_m = np.diff(grid.x_edges_ft) * FT_M
+    dy_m = np.diff(grid.board_edges) * (lane_width_m / BOARDS)
+    volume_m3 = grid.volume_ul * 1e-9
+    return volume_m3 / np.outer(dx_m, dy_m) * 1e6
+
+
+def _board_edges_m(board_edges: Array, lane_width_m: float) -> Array:
+    """Board positions (board widths from the right gutter) -> y (m); 0 and 39 map exactly to
+    the gutters."""
+    y = board_edges * lane_width_m / BOARDS
+    return np.where(board_edges >= BOARDS, lane_width_m, y)
+
+
+def _clamped(edges: Array, lo: float, hi: float) -> tuple[Array, slice]:
+    """Edges strictly inside (lo, hi) and the slice of the padded cells they bound: a cell
+    beyond ``lo`` / ``hi`` merges with the one inside."""
+    first = int(np.searchsorted(edges, lo, side="right"))
+    last = int(np.searchsorted(edges, hi, side="left"))
+    return edges[first:last], slice(first, last + 1)
+
+
+def pattern_friction(
+    pattern: KegelPattern | RectanglePattern,
+    *,
+    lane_width_m: float,
+    length_m: float = _LANE_LENGTH_M,
+    coverstock: Coverstock | None = None,
+    mapping: OilFrictionMapping | None = None,
+) -> GridFriction:
+    """The friction map of an oil pattern on a lane ``lane_width_m`` wide and ``length_m`` long
+    (m), for a coverstock (None: no coverstock factor), under ``mapping`` (default: the
+    paper's two levels). Use the same width for the Lane (see :func:`pattern_lane`)."""
+    m = mapping or OilFrictionMapping()
+    grid = oil_grid(pattern)
+    film = np.pad(film_thickness_um(grid, lane_width_m), 1)  # dry all around the grid
+    mu = mu_of_film(film, m, coverstock)
+    xe, xs = _clamped(grid.x_edges_ft * FT_M, 0.0, length_m)
+    ye, ys = _clamped(_board_edges_m(grid.board_edges, lane_width_m), 0.0, lane_width_m)
+    g = simplify_grid(xe, ye, mu[xs, ys])
+    cover = coverstock or "no coverstock factor"
+    return GridFriction(
+        x_edges_m=g.x_edges_m.tolist(),
+        y_edges_m=g.y_edges_m.tolist(),
+        mu=g.mu.tolist(),
+        source=f"oil pattern {pattern.name!r}, {cover}, {_mapping_text(m)}",
+    )
+
+
+def _mapping_text(m: OilFrictionMapping) -> str:
+    """Short description of a mapping for GridFriction.source."""
+    text = f"mu_oil {fmt(m.mu_oil)} / mu_dry {fmt(m.mu_dry)}"
+    if m.oiled_at_or_above_um > 0:
+        text += f", ramp {fmt(m.dry_at_or_below_um)}-{fmt(m.oiled_at_or_above_um)} um"
+    return text
+
+
+def pattern_lane(
+    pattern: KegelPattern | RectanglePattern,
+    *,
+    width_m: float = _USBC_WIDTH_M,
+    length_m: float = _LANE_LENGTH_M,
+    coverstock: Coverstock | None = None,
+    mapping: OilFrictionMapping | None = None,
+) -> Lane:
+    """A :class:`~bowlrec.spec.Lane` (default 60 ft x 41.5 in, USBC) oiled with ``pattern``;
+    pass width_m=42 * 0.0254 for the paper's lane."""
+    friction = pattern_friction(
+        pattern, lane_width_m=width_m, length_m=length_m, coverstock=coverstock, mapping=mapping
+    )
+    return Lane(length_m=length_m, width_m=width_m, friction=friction)
+
+
+def mirror_friction(friction: GridFriction, width_m: float) -> GridFriction:
+    """The map seen from the other side (y -> width_m - y), e.g. to simulate a left-hander as a
+    mirrored right-hander. Cells stay half-open on the same side, so points exactly on a break
+    point may change cell."""
+    ye = [width_m - y for y in reversed(friction.y_edges_m)]
+    mu = [list(reversed(row)) for row in friction.mu]
+    return GridFriction(
+        x_edges_m=list(friction.x_edges_m), y_edges_m=ye, mu=mu, source=friction.source
+    )
