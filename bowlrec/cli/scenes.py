@@ -64,6 +64,8 @@ def simulate(
 
     scene_obj = load_scene_or_exit(scene) if scene is not None else Scene()
     needs_samples = wants_samples(out, mcap, rrd, connect, spawn, plot)
+    # a bowler-language scene reports in bowlers' terms, which reads the samples
+    keep_samples = needs_samples or _is_bowler_file(scene)
     if needs_samples and scene_obj.options.record == "summary":
         options = scene_obj.options.model_copy(update={"record": "steps"})
         scene_obj = scene_obj.model_copy(update={"options": options})
@@ -92,7 +94,7 @@ def simulate(
                 quiet,
                 _solve_unarchived,
                 scene_obj,
-                needs_samples,
+                keep_samples,
             )
             run_id, added = None, False
         from bowlrec.sinks import RunData
@@ -101,6 +103,7 @@ def simulate(
         if out is not None:
             traj.save_npz(out)
         lines = write_outputs(run, mcap=mcap, rrd=rrd, connect=connect, spawn=spawn, plot=plot)
+    bowler = _bowler_report(scene, traj)
     if as_json:
         payload = summary_json(traj.summary)
         payload.update(
@@ -110,11 +113,51 @@ def simulate(
                 "archive": None if store is None else str(store.root),
             }
         )
+        if bowler is not None:
+            payload["bowler"] = bowler
         typer.echo(json.dumps(payload))
         return
     _print_summary(scene_obj.name, traj, out, run_id, added, store)
+    if bowler is not None:
+        _print_bowler(bowler)
     for line in lines:
         typer.echo(line)
+
+
+def _is_bowler_file(path: Path | None) -> bool:
+    from bowlrec.spec.loading import read_mapping
+
+    if path is None:
+        return False
+    data = read_mapping(path)
+    return isinstance(data, dict) and data.get("format") == "bowler"
+
+
+def _bowler_report(path: Path | None, traj: Any) -> dict[str, Any] | None:
+    """The report in bowlers' terms for a bowler-language scene file with samples, else None."""
+    from bowlrec.spec.loading import read_mapping
+
+    if path is None or traj.n_samples == 0:
+        return None
+    data = read_mapping(path)
+    if not (isinstance(data, dict) and data.get("format") == "bowler"):
+        return None
+    from bowlrec.bowling.report import bowler_report
+    from bowlrec.bowling.scene import BowlerScene
+
+    bs = BowlerScene.model_validate(data)
+    return bowler_report(traj, bs.lane, bs.delivery.handedness).to_dict()
+
+
+def _print_bowler(report: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="in bowlers' terms", show_header=False)
+    for key, value in report.items():
+        text = f"{value:.2f}" if isinstance(value, float) else str(value)
+        table.add_row(key, text)
+    Console().print(table)
 
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:

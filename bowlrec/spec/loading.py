@@ -28,8 +28,17 @@ def read_mapping(path: str | Path) -> Any:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Load and validate a scene file; raises ``pydantic.ValidationError`` on invalid content."""
-    return Scene.model_validate(read_mapping(path))
+    """Load and validate a scene file; raises ``pydantic.ValidationError`` on invalid content.
+
+    A bowler-language file (top-level ``"format": "bowler"``, see
+    :class:`bowlrec.bowling.scene.BowlerScene`) is resolved to the physical scene.
+    """
+    data = read_mapping(path)
+    if isinstance(data, dict) and data.get("format") == "bowler":
+        from bowlrec.bowling.scene import BowlerScene
+
+        return BowlerScene.model_validate(data).to_scene()
+    return Scene.model_validate(data)
 
 
 def dump_scene_json(scene: Scene) -> str:

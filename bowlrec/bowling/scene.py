@@ -1,0 +1,159 @@
+"""A scene in bowlers' language: ball spec sheet + layout + PAP + static weights, lane and oil
+pattern, delivery as a tracking system reports it. :meth:`BowlerScene.to_scene` resolves it to
+the physical :class:`~bowlrec.spec.Scene` (SI, lane frame); the kernel never sees these units.
+
+A file is read as a bowler scene when its top level has ``"format": "bowler"``
+(:func:`bowlrec.spec.load_scene` and every CLI command that takes a scene accept both).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field, model_validator
+
+from bowlrec.spec import Options, Scene
+from bowlrec.spec._base import FiniteFloat, SpecModel, spec_error
+
+from .ball import BowlerBall, CenterOfMassMark, StaticWeights
+from .delivery import BowlerDelivery
+from .lane import BowlerLane
+from .layout import PAP, DualAngle, Layout, resolve_ball
+from .legality import LegalityReport, RuleSetName, check_legality, ensure_legal
+from .oil import KegelPattern, RectanglePattern, preset, preset_names
+from .oil_friction import OilFrictionMapping, pattern_friction
+
+__all__ = ["BowlerScene"]
+
+
+def _default_ball() -> BowlerBall:
+    return BowlerBall(
+        name="example 15 lb symmetric",
+        weight_lb=15.0,
+        rg_in=2.50,
+        differential_in=0.050,
+        core_type="symmetric",
+        coverstock="reactive_pearl",
+        surface=1500,
+    )
+
+
+class BowlerScene(SpecModel):
+    """One delivery described as bowlers, drillers and coaches write it (lb, in, oz, mph, rpm,
+    boards, ft, deg). Every field has a default: ``BowlerScene()`` is a right-hander's 17 mph,
+    300 rpm, 45 deg rotation delivery of a 15 lb symmetric pearl ball drilled 45 x 4.5 x 30 on
+    the paper's typical pattern."""
+
+    format: Literal["bowler"] = Field(
+        default="bowler", description="Marks a bowler-language scene file; always 'bowler'."
+    )
+    name: str = Field(default="bowler-scene", description="Short identifier.")
+    description: str = Field(default="", description="Free text.")
+    ball: BowlerBall = Field(default_factory=_default_ball, description="The spec sheet.")
+    layout: Layout = Field(
+        default_factory=lambda: DualAngle(
+            drilling_angle_deg=45.0, pin_to_pap_in=4.5, val_angle_deg=30.0
+        ),
+        description="Where the pin and PSA sit relative to the PAP (dual_angle | vls | ...).",
+    )
+    pap: PAP = Field(
+        default_factory=lambda: PAP(over_in=5.0, up_in=0.5),
+        description="The bowler's positive axis point from the center of grip (in), hand.",
+    )
+    balance: StaticWeights | CenterOfMassMark | None = Field(
+        default=None,
+        description="Static weights after drilling (oz) or a center-of-mass mark; none: balanced.",
+    )
+    roll_about_pap_deg: FiniteFloat = Field(
+        default=0.0,
+        description="Rotation of the ball about the PAP at release (deg); 0 puts the center of "
+        "grip as high as it can be.",
+    )
+    lane: BowlerLane = Field(default_factory=BowlerLane, description="Lane geometry (ft, in).")
+    pattern: str | KegelPattern | RectanglePattern = Field(
+        default="paper_typical",
+        description="Oil pattern: a preset name (bowlrec patterns list) or a pattern sheet.",
+    )
+    oil_friction: OilFrictionMapping = Field(
+        default_factory=OilFrictionMapping,
+        description="Oil depth -> friction mapping (default: the paper's 0.04 oiled / 0.20 dry).",
+    )
+    delivery: BowlerDelivery = Field(
+        default_factory=lambda: BowlerDelivery(
+            speed_mph=17.0,
+            rev_rate_rpm=300.0,
+            axis_rotation_deg=45.0,
+            axis_tilt_deg=10.0,
+            laydown_board=15.0,
+            target_board_at_arrows=10.0,
+        ),  # fmt: skip
+        description="The delivery as a tracking system reports it.",
+    )
+    options: Options = Field(default_factory=Options, description="Solver and recording.")
+    rules: RuleSetName = Field(
+        default="current", description="USBC rule set the ball is checked against."
+    )
+    balance_hole: bool = Field(default=False, description="The ball has a balance hole.")
+    allow_illegal: bool = Field(
+        default=False, description="Simulate a ball that fails the rule set (reported)."
+    )
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BowlerScene:
+        if self.pap.handedness != self.delivery.handedness:
+            raise spec_error(
+                f"pap.handedness = {self.pap.handedness!r} must equal delivery.handedness = "
+                f"{self.delivery.handedness!r} (one bowler throws the ball)"
+            )
+        if isinstance(self.pattern, str) and self.pattern not in preset_names():
+            raise spec_error(
+                f"pattern = {self.pattern!r} is not a preset; presets: {', '.join(preset_names())}"
+            )
+        return self
+
+    def pattern_model(self) -> KegelPattern | RectanglePattern:
+        """The oil pattern as a model (a preset loaded by name)."""
+        return preset(self.pattern) if isinstance(self.pattern, str) else self.pattern
+
+    def legality(self) -> LegalityReport:
+        """The ball checked against :attr:`rules` (static weights included when given)."""
+        weights = self.balance if isinstance(self.balance, StaticWeights) else None
+        return check_legality(
+            self.ball, self.rules, static_weights=weights, balance_hole=self.balance_hole
+        )
+
+    def to_scene(self) -> Scene:
+        """The physical scene. Raises IllegalBallError for an illegal ball unless
+        ``allow_illegal``."""
+        weights = self.balance if isinstance(self.balance, StaticWeights) else None
+        ensure_legal(
+            self.ball,
+            self.rules,
+            static_weights=weights,
+            balance_hole=self.balance_hole,
+            allow_illegal=self.allow_illegal,
+        )
+        friction = pattern_friction(
+            self.pattern_model(),
+            lane_width_m=self.lane.width_m,
+            length_m=self.lane.length_m,
+            coverstock=self.ball.coverstock,
+            mapping=self.oil_friction,
+        )
+        delivery = self.delivery.to_physical(self.lane)
+        ball = resolve_ball(
+            self.ball,
+            self.layout,
+            self.pap,
+            delivery.omega_radps,
+            roll_about_pap_deg=self.roll_about_pap_deg,
+            balance=self.balance,
+        )
+        return Scene(
+            name=self.name,
+            description=self.description,
+            ball=ball,
+            lane=self.lane.to_physical(friction),
+            delivery=delivery,
+            options=self.options,
+        )

@@ -1,0 +1,80 @@
+"""BowlerScene: bowler language -> physical scene -> simulation, mirrors, legality, CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pydantic import ValidationError
+from typer.testing import CliRunner
+
+import bowlrec
+from bowlrec.bowling.legality import IllegalBallError
+from bowlrec.bowling.scene import BowlerScene
+from bowlrec.cli import app
+from bowlrec.spec import load_scene
+
+EXAMPLE = Path(__file__).parents[1] / "examples" / "bowler" / "house-shot-right.json"
+
+
+def _mirrored(bs: BowlerScene) -> BowlerScene:
+    hand = "left" if bs.delivery.handedness == "right" else "right"
+    return bs.model_copy(
+        update={
+            "pap": bs.pap.model_copy(update={"handedness": hand}),
+            "delivery": bs.delivery.model_copy(update={"handedness": hand}),
+        }
+    )
+
+
+def test_default_bowler_scene_resolves_and_hooks_left_for_a_right_hander() -> None:
+    scene = BowlerScene().to_scene()
+    assert scene.delivery.speed_mps == pytest.approx(17 * 0.44704, rel=1e-15)
+    assert np.linalg.norm(scene.delivery.omega_radps) == pytest.approx(300 * np.pi / 30, rel=1e-14)
+    assert scene.ball.rg_m[0] == pytest.approx(2.50 * 0.0254, rel=1e-15)
+    summary = bowlrec.simulate(scene).summary
+    assert summary.outcome == "pins" and summary.hook_m is not None and summary.hook_m > 0.3
+
+
+def test_a_left_hander_mirrors_a_right_hander_exactly() -> None:
+    right = BowlerScene(balance={"top_oz": 1.0, "side_oz": 0.5, "finger_oz": -0.5})
+    s_right = bowlrec.simulate(right.to_scene()).summary
+    s_left = bowlrec.simulate(_mirrored(right).to_scene()).summary
+    assert s_right.hook_m is not None and s_left.hook_m is not None
+    assert s_left.hook_m == pytest.approx(-s_right.hook_m, abs=1e-9)
+    assert s_left.slide_m == pytest.approx(s_right.slide_m, abs=1e-9)
+    assert s_left.pocket_deg == pytest.approx(-s_right.pocket_deg, abs=1e-9)
+
+
+def test_illegal_ball_needs_the_explicit_flag() -> None:
+    heavy = BowlerScene().ball.model_copy(update={"weight_lb": 16.5})
+    with pytest.raises(IllegalBallError, match="weight"):
+        BowlerScene(ball=heavy).to_scene()
+    scene = BowlerScene(ball=heavy, allow_illegal=True).to_scene()
+    assert scene.ball.mass_kg == pytest.approx(16.5 * 0.45359237)
+    assert not BowlerScene(ball=heavy).legality().is_legal
+    assert BowlerScene(ball=heavy, rules="paper_era").legality().is_legal is False
+
+
+def test_bad_combinations_name_the_fields() -> None:
+    with pytest.raises(ValidationError, match="pap.handedness = 'left' must equal"):
+        BowlerScene(pap={"over_in": 5.0, "handedness": "left"})
+    with pytest.raises(ValidationError, match="pattern = 'nope' is not a preset"):
+        BowlerScene(pattern="nope")
+
+
+def test_example_file_loads_and_the_cli_reports_in_bowlers_terms(
+    tmp_path: Path,
+) -> None:
+    scene = load_scene(EXAMPLE)
+    assert scene.name == "right-hander-house-shot"
+    result = CliRunner().invoke(app, ["simulate", str(EXAMPLE), "--json", "--no-archive"])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    bowler = out["bowler"]
+    assert bowler["launch_speed_mph"] == pytest.approx(17.0, abs=1e-9)
+    assert bowler["entry_angle_deg"] == pytest.approx(out["pocket_deg"], abs=1e-9)
+    assert bowler["slide_ft"] == pytest.approx(out["slide_m"] / 0.3048, abs=1e-9)
+    assert bowler["breakpoint_board"] < bowler["laydown_board"] < bowler["entry_board"]
