@@ -78,3 +78,34 @@ def test_example_file_loads_and_the_cli_reports_in_bowlers_terms(
     assert bowler["entry_angle_deg"] == pytest.approx(out["pocket_deg"], abs=1e-9)
     assert bowler["slide_ft"] == pytest.approx(out["slide_m"] / 0.3048, abs=1e-9)
     assert bowler["breakpoint_board"] < bowler["laydown_board"] < bowler["entry_board"]
+
+
+def test_bowling_cli_commands(tmp_path: Path) -> None:
+    runner = CliRunner()
+    out = runner.invoke(app, ["patterns", "kegel_big_ben"])
+    assert out.exit_code == 0, out.output
+    stats = json.loads(out.output)
+    assert stats["total_ml"] == pytest.approx(24.7) and stats["ratio"] == pytest.approx(22 / 3)
+    assert runner.invoke(app, ["patterns", "nope"]).exit_code == 2
+    sheet = runner.invoke(app, ["sheet", "storm-the-road-15lb"])
+    assert sheet.exit_code == 0 and "RG              2.470 in" in sheet.output
+    assert "rule set 'current': legal" in sheet.output
+    path = tmp_path / "bowler.json"
+    assert runner.invoke(app, ["bowler-scene", str(path)]).exit_code == 0
+    assert load_scene(path) == BowlerScene().to_scene()
+
+
+def test_readme_table2_block_is_the_computed_one() -> None:
+    import importlib.util
+
+    root = Path(__file__).parents[1]
+    spec = importlib.util.spec_from_file_location(
+        "table2_sweep", root / "examples" / "table2_sweep.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    text = module.markdown(module.sweeps())
+    readme = (root / "README.md").read_text()
+    block = readme.split("<!-- table2:begin -->\n")[1].split("<!-- table2:end -->")[0]
+    assert block == text, "run: python examples/table2_sweep.py --update-readme"

@@ -1,0 +1,93 @@
+"""Bowlers'-language commands: ``patterns`` (oil presets and their statistics), ``sheet`` (ball
+spec sheets of the curated library, with USBC legality), ``bowler-scene`` (a template file)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ._app import app
+from ._common import JsonOption, fail
+
+
+@app.command()
+def patterns(
+    name: Annotated[str | None, typer.Argument(help="Preset name; omitted: list all.")] = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Oil-pattern presets with their Kegel-sheet statistics (volume, crosses, ratio)."""
+    from dataclasses import asdict
+
+    from bowlrec.bowling.oil import pattern_statistics, preset, preset_names
+
+    names = preset_names() if name is None else [name]
+    if name is not None and name not in preset_names():
+        fail(f"no pattern preset {name!r}; presets: {', '.join(preset_names())}")
+    rows = []
+    for n in names:
+        p = preset(n)
+        stats = asdict(pattern_statistics(p))
+        kind = "kegel sheet" if p.kind == "kegel" else "rectangles"
+        kind += ", approximation" if p.approximation else ""
+        rows.append({"name": n, "kind": kind, "source": p.source, **stats})
+    if as_json or name is not None:
+        typer.echo(json.dumps(rows if name is None else rows[0], indent=2))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table(title="oil pattern presets (bowlrec patterns NAME: one, with its source)")
+    for col in ("name", "length (ft)", "oil ends (ft)", "volume (mL)", "ratio", "crosses", "kind"):
+        table.add_column(col)
+    for r in rows:
+        ratio = "-" if r["ratio"] is None else f"{r['ratio']:.2f}:1"
+        crosses = "-" if r["total_crosses"] is None else str(r["total_crosses"])
+        table.add_row(
+            r["name"],
+            f"{r['distance_ft']:g}",
+            f"{r['oil_end_ft']:g}",
+            f"{r['total_ml']:.2f}",
+            ratio,
+            crosses,
+            r["kind"],
+        )
+    Console().print(table)
+
+
+@app.command()
+def sheet(
+    ball: Annotated[
+        str | None, typer.Argument(help="Ball id in the curated library; omitted: list ids.")
+    ] = None,
+) -> None:
+    """A ball of the curated example library as a spec sheet, with its USBC legality."""
+    from bowlrec.bowling.layout import load_example_library
+    from bowlrec.bowling.legality import RULE_SETS, check_legality
+
+    lib = load_example_library()
+    if ball is None:
+        for entry in lib.balls:
+            typer.echo(f"{entry.id:38s} {entry.ball.name}")
+        return
+    entries = {e.id: e for e in lib.balls}
+    if ball not in entries:
+        fail(f"no ball {ball!r} in the curated library; ids: {', '.join(entries)}")
+    entry = entries[ball]
+    typer.echo(entry.ball.spec_sheet())
+    for rules in RULE_SETS:
+        typer.echo(str(check_legality(entry.ball, rules)))
+    typer.echo(f"source: {entry.source}")
+
+
+@app.command("bowler-scene")
+def bowler_scene(
+    out: Annotated[Path, typer.Argument(help="File to write (.json).")] = Path("bowler.json"),
+) -> None:
+    """Write a complete bowler-language scene with every field at its default, to edit."""
+    from bowlrec.bowling.scene import BowlerScene
+
+    out.write_text(json.dumps(BowlerScene().model_dump(mode="json"), indent=2) + "\n")
+    typer.echo(f"{out}: simulate it with: bowlrec simulate {out}")
