@@ -109,3 +109,34 @@ def test_readme_table2_block_is_the_computed_one() -> None:
     readme = (root / "README.md").read_text()
     block = readme.split("<!-- table2:begin -->\n")[1].split("<!-- table2:end -->")[0]
     assert block == text, "run: python examples/table2_sweep.py --update-readme"
+
+
+def test_curated_library_goes_into_the_archive_and_drives_bowler_scenes(tmp_path: Path) -> None:
+    from bowlrec.archive import Archive
+    from bowlrec.bowling.ball import BowlerBall
+    from bowlrec.bowling.layout import load_example_library
+
+    runner = CliRunner()
+    arch = str(tmp_path / "arch")
+    result = runner.invoke(app, ["balls", "add-examples", "-a", arch])
+    assert result.exit_code == 0, result.output
+    curated = load_example_library().balls
+    entries = {e.name: e for e in Archive(arch).balls.list()}
+    assert set(entries) == {c.id for c in curated}
+    for c in curated:
+        assert isinstance(entries[c.id].ball, BowlerBall) and entries[c.id].ball == c.ball
+    again = runner.invoke(app, ["balls", "add-examples", "-a", arch])
+    assert again.output.count("unchanged") == len(curated)
+    shown = runner.invoke(app, ["balls", "show", "storm-the-road-15lb", "-a", arch])
+    assert "RG              2.470 in" in shown.output
+    out = runner.invoke(
+        app, ["simulate", str(EXAMPLE), "--ball", "storm-the-road-15lb", "-a", arch, "--json"]
+    )
+    assert out.exit_code == 0, out.output
+    row = Archive(arch).row(json.loads(out.output)["run_id"])
+    assert (row["ball_name"], row["ball_version"]) == ("storm-the-road-15lb", 1)
+    physical = Path(__file__).parents[1] / "examples" / "paper" / "case16.json"
+    bad = runner.invoke(
+        app, ["simulate", str(physical), "--ball", "storm-the-road-15lb", "-a", arch]
+    )
+    assert bad.exit_code == 2 and "is a spec sheet" in bad.output

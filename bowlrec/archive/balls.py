@@ -1,5 +1,9 @@
 """The archive's ball-spec library: named, versioned ball specs.
 
+An entry is a physical ball (:class:`~bowlrec.spec.Ball`: SI, principal axes and offset in the
+lane frame at release) or a spec sheet in bowlers' units
+(:class:`~bowlrec.bowling.ball.BowlerBall`, placed on the lane by a bowler scene's layout).
+
 Adding a spec under a name that already has an identical latest spec is a no-op (same version);
 a changed spec becomes the next version and the old versions stay. Runs reference the library
 entry they used as ``name@version``. Export/import is a JSON document (format
@@ -20,7 +24,11 @@ from typing import TYPE_CHECKING, Any
 from .index import connect
 
 if TYPE_CHECKING:
+    from bowlrec.bowling.ball import BowlerBall
     from bowlrec.spec import Ball
+
+    #: a library entry holds a physical ball (SI, lane frame at release) or a spec sheet
+    AnyBall = Ball | BowlerBall
 
 __all__ = [
     "LIBRARY_FORMAT",
@@ -43,7 +51,19 @@ class BallNotFoundError(KeyError):
         return str(self.args[0])
 
 
-def ball_sha(ball: Ball) -> str:
+def parse_ball(data: dict[str, Any]) -> AnyBall:
+    """A physical :class:`~bowlrec.spec.Ball` or, when the mapping is a spec sheet (it has
+    ``weight_lb``), a :class:`~bowlrec.bowling.ball.BowlerBall`."""
+    if "weight_lb" in data:
+        from bowlrec.bowling.ball import BowlerBall
+
+        return BowlerBall.model_validate(data)
+    from bowlrec.spec import Ball
+
+    return Ball.model_validate(data)
+
+
+def ball_sha(ball: AnyBall) -> str:
     """SHA-256 (hex) of the ball spec's canonical JSON: equal specs, equal hashes."""
     canon = json.dumps(ball.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(canon.encode()).hexdigest()
@@ -66,7 +86,7 @@ class BallEntry:
     name: str
     version: int
     sha: str
-    ball: Ball
+    ball: AnyBall
     added_at: str
     note: str = ""
 
@@ -85,13 +105,11 @@ class BallEntry:
 
 
 def _entry(row: Any) -> BallEntry:
-    from bowlrec.spec import Ball
-
     return BallEntry(
         name=row["name"],
         version=int(row["version"]),
         sha=row["sha"],
-        ball=Ball.model_validate_json(row["spec_json"]),
+        ball=parse_ball(json.loads(row["spec_json"])),
         added_at=row["added_at"],
         note=row["note"],
     )
@@ -103,7 +121,7 @@ class BallLibrary:
     def __init__(self, index_path: Path) -> None:
         self.index_path = index_path
 
-    def add(self, name: str, ball: Ball, note: str = "") -> tuple[BallEntry, bool]:
+    def add(self, name: str, ball: AnyBall, note: str = "") -> tuple[BallEntry, bool]:
         """Store ``ball`` under ``name``; returns (entry, True if a new version was created)."""
         if not _NAME.match(name):
             raise ValueError(
@@ -160,7 +178,7 @@ class BallLibrary:
             latest[e.name] = e
         return list(latest.values())
 
-    def find(self, ball: Ball) -> BallEntry | None:
+    def find(self, ball: AnyBall) -> BallEntry | None:
         """The newest entry whose spec equals ``ball`` (None if the library has none)."""
         with connect(self.index_path) as con:
             row = con.execute(
@@ -199,8 +217,6 @@ class BallLibrary:
         adds nothing.
         Version numbers are assigned by this library (they continue its own sequence).
         """
-        from bowlrec.spec import Ball
-
         doc = source if isinstance(source, dict) else json.loads(Path(source).read_text())
         if doc.get("format") != LIBRARY_FORMAT:
             raise ValueError(
@@ -210,7 +226,7 @@ class BallLibrary:
         items = sorted(doc.get("balls", []), key=lambda b: (b["name"], b.get("version", 0)))
         out = []
         for item in items:
-            ball = Ball.model_validate(item["spec"])
+            ball = parse_ball(item["spec"])
             sha = ball_sha(ball)
             same = [e for e in self.list(item["name"], all_versions=True) if e.sha == sha]
             if same:

@@ -17,10 +17,11 @@ app.add_typer(balls_app, name="balls")
 
 
 def _load_ball(path: Path) -> Any:
-    """A Ball from a ball spec file, or the ``ball`` of a scene file (.json/.yaml)."""
+    """A ball from a file: a physical ball spec, a spec sheet in bowlers' units (it has
+    ``weight_lb``), or the ``ball`` of a scene file (physical or bowler-language)."""
     import yaml
 
-    from bowlrec.spec import Ball
+    from bowlrec.archive.balls import parse_ball
 
     if not path.exists():
         fail(f"{path}: no such file")
@@ -30,7 +31,7 @@ def _load_ball(path: Path) -> Any:
         fail(f"{path}: not valid JSON/YAML ({err})")
     if isinstance(data, dict) and "ball" in data:
         data = data["ball"]
-    return Ball.model_validate(data or {})
+    return parse_ball(data or {})
 
 
 @balls_app.command("add")
@@ -64,19 +65,20 @@ def list_balls(
     from rich.console import Console
     from rich.table import Table
 
+    from bowlrec.bowling.ball import BowlerBall
+
     table = Table(title=f"{len(entries)} ball(s) in {store.root}")
-    for column in ("ball", "mass (kg)", "RG (m)", "offset (m)", "added", "note"):
-        table.add_column(column)
+    for column in ("ball", "kind", "mass", "RG", "added", "note"):
+        table.add_column(column, overflow="fold")
     for e in entries:
         b = e.ball
-        table.add_row(
-            e.ref,
-            f"{b.mass_kg:g}",
-            " ".join(f"{v:.4f}" for v in b.rg_m),
-            " ".join(f"{v:.4g}" for v in b.com_offset_m),
-            e.added_at,
-            e.note,
-        )
+        if isinstance(b, BowlerBall):
+            kind, mass = "spec sheet", f"{b.weight_lb:g} lb"
+            rg = f"{b.rg_in:.3f} in, diff {b.differential_in:.3f}"
+        else:
+            kind, mass = "physical", f"{b.mass_kg:g} kg"
+            rg = " ".join(f"{v:.4f}" for v in b.rg_m) + " m"
+        table.add_row(e.ref, kind, mass, rg, e.added_at, e.note)
     Console().print(table)
 
 
@@ -88,7 +90,10 @@ def show(
     """Print one ball spec as JSON."""
     store = _open(archive)
     with archive_errors():
-        typer.echo(json.dumps(store.balls.get(ref).to_json_dict(), indent=2))
+        entry = store.balls.get(ref)
+    if hasattr(entry.ball, "spec_sheet"):
+        typer.echo(entry.ball.spec_sheet())
+    typer.echo(json.dumps(entry.to_json_dict(), indent=2))
 
 
 @balls_app.command("rm")
@@ -132,3 +137,15 @@ def import_(
         results = store.balls.import_json(source)
     for entry, created in results:
         typer.echo(f"{entry.ref} {'added' if created else 'already present'}")
+
+
+@balls_app.command("add-examples")
+def add_examples(archive: ArchiveOption = None) -> None:
+    """Add the curated example library (spec sheets a pro shop would recognize, each with its
+    source) to the archive's ball library, named by their ids."""
+    from bowlrec.bowling.layout import load_example_library
+
+    store = _open(archive)
+    for item in load_example_library().balls:
+        entry, created = store.balls.add(item.id, item.ball, note=item.source[:200])
+        typer.echo(f"{entry.ref} {'added' if created else 'unchanged'}")

@@ -14,6 +14,7 @@ from ._common import (
     JsonOption,
     QuietOption,
     archive_errors,
+    fail,
     interactive,
     load_scene_or_exit,
     open_archive,
@@ -77,9 +78,8 @@ def simulate(
     ball_ref = None
     with archive_errors():
         if ball is not None:
-            lib = (store or open_archive(archive)).balls
-            entry = lib.get(ball)
-            scene_obj = scene_obj.model_copy(update={"ball": entry.ball})
+            entry = (store or open_archive(archive)).balls.get(ball)
+            scene_obj = _with_library_ball(scene, scene_obj, entry)
             ball_ref = entry.ref
         if store is not None:
             result = with_status(
@@ -122,6 +122,25 @@ def simulate(
         _print_bowler(bowler)
     for line in lines:
         typer.echo(line)
+
+
+def _with_library_ball(path: Path | None, scene_obj: Any, entry: Any) -> Any:
+    """``scene_obj`` with the library ball: a physical ball replaces the physical scene's ball;
+    a spec sheet replaces a bowler scene's ball (then laid out by its layout and PAP)."""
+    from bowlrec.bowling.ball import BowlerBall
+
+    if isinstance(entry.ball, BowlerBall):
+        if not _is_bowler_file(path):
+            fail(
+                f"library ball {entry.ref} is a spec sheet (bowlers' units): use it with a "
+                "bowler-language scene (format: bowler), which has the layout and PAP"
+            )
+        from bowlrec.bowling.scene import BowlerScene
+        from bowlrec.spec.loading import read_mapping
+
+        bs = BowlerScene.model_validate(read_mapping(path))  # type: ignore[arg-type]
+        return bs.model_copy(update={"ball": entry.ball}).to_scene()
+    return scene_obj.model_copy(update={"ball": entry.ball})
 
 
 def _is_bowler_file(path: Path | None) -> bool:
