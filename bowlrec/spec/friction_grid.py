@@ -25,7 +25,7 @@ from .friction import (
     ZoneFriction,
 )
 
-__all__ = ["FrictionGrid", "build_friction_grid", "mu_at", "simplify_grid"]
+__all__ = ["FrictionGrid", "build_friction_grid", "clip_to_lane", "mu_at", "simplify_grid"]
 
 Array = NDArray[np.float64]
 
@@ -99,6 +99,29 @@ def build_friction_grid(friction: Friction, width_m: float) -> FrictionGrid:
     if isinstance(friction, GridFriction):
         return simplify_grid(friction.x_edges_m, friction.y_edges_m, np.array(friction.mu))
     raise TypeError(f"unknown friction model {type(friction).__name__}")
+
+
+def _inside_points(edges: Array, hi: float) -> Array:
+    """A point inside [0, hi] for every cell of ``edges`` (all strictly inside (0, hi))."""
+    bounds = np.concatenate([[0.0], edges, [hi]])
+    return 0.5 * (bounds[:-1] + bounds[1:])
+
+
+def clip_to_lane(grid: FrictionGrid, length_m: float, width_m: float) -> FrictionGrid:
+    """The grid without break points on or beyond the lane's edges (x <= 0, x >= length_m,
+    y <= 0, y >= width_m); each remaining cell keeps the friction it has on the lane.
+
+    The run ends when the center reaches the pins (x = length_m) or a gutter (y = 0 or
+    width_m), so cells beyond those lines are never visited, and a break point exactly on one of
+    them would coincide with the end-of-run event (a zone covering the whole lane, e.g.).
+    """
+    xe = grid.x_edges_m[(grid.x_edges_m > 0.0) & (grid.x_edges_m < length_m)]
+    ye = grid.y_edges_m[(grid.y_edges_m > 0.0) & (grid.y_edges_m < width_m)]
+    if xe.size == grid.x_edges_m.size and ye.size == grid.y_edges_m.size:
+        return grid
+    px, py = _inside_points(xe, length_m), _inside_points(ye, width_m)
+    mu = np.array([[mu_at(grid, x, y) for y in py] for x in px])
+    return simplify_grid(xe, ye, mu)
 
 
 def mu_at(grid: FrictionGrid | _PlanLike | tuple[Array, Array, Array], x: float, y: float) -> float:

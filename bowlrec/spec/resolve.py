@@ -17,7 +17,7 @@ from bowlrec.core.plan import (
     Plan,
 )
 
-from .friction_grid import build_friction_grid
+from .friction_grid import build_friction_grid, clip_to_lane
 from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quaternion_to_matrix
 
 if TYPE_CHECKING:
@@ -53,7 +53,9 @@ def resolve_scene(scene: Scene) -> Plan:
     position0 = (0.0, 0.5 * lane.width_m) if delivery.position_m is None else delivery.position_m
     angle = math.radians(delivery.takeoff_angle_deg)
     velocity0 = (delivery.speed_mps * math.cos(angle), delivery.speed_mps * math.sin(angle))
-    grid = build_friction_grid(lane.friction, lane.width_m)
+    grid = clip_to_lane(
+        build_friction_grid(lane.friction, lane.width_m), lane.length_m, lane.width_m
+    )
     return Plan(
         mass_kg=float(ball.mass_kg),
         radius_m=float(ball.radius_m),
