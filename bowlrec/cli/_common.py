@@ -98,6 +98,26 @@ def with_status(message: str, quiet: bool, fn: Callable[..., Any], *args: Any) -
         return fn(*args)
 
 
+def with_progress(
+    quiet: bool, description: str, total: int, work: Callable[[Callable[[Any], None] | None], Any]
+) -> Any:
+    """``work(advance)`` under a progress bar (on a terminal and without --quiet); ``advance``
+    is None otherwise. ``work`` calls ``advance(item)`` once per finished item."""
+    if not interactive(quiet):
+        return work(None)
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+    with Progress(
+        "[progress.description]{task.description}",
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        transient=True,
+    ) as progress:
+        task = progress.add_task(description, total=total)
+        return work(lambda _item: progress.advance(task))
+
+
 def summary_json(summary: Any) -> dict[str, Any]:
     """The summary keys the CLI prints with --json."""
     d = summary.to_dict()

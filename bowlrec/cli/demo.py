@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 
 from ._app import app
-from ._common import ArchiveOption, QuietOption, interactive, open_archive
+from ._common import ArchiveOption, QuietOption, open_archive, with_progress
 
 #: the paper's Fig. 6 comparison; case 16 is written to MCAP and rerun
 FIG6_CASES = (9, 10, 14, 16)
@@ -102,22 +102,14 @@ def _installed(module: str) -> bool:
 
 
 def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:
-    if not interactive(quiet):
-        return [store.simulate(s) for s in scenes]
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
-
-    results = []
-    with Progress(
-        "[progress.description]{task.description}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        transient=True,
-    ) as progress:
-        task = progress.add_task(
-            "Table III into the archive (first run compiles)", total=len(scenes)
-        )
+    def work(advance: Any) -> list[Any]:
+        results = []
         for scene in scenes:
             results.append(store.simulate(scene))
-            progress.advance(task)
-    return results
+            if advance is not None:
+                advance(scene)
+        return results
+
+    return with_progress(
+        quiet, "Table III into the archive (first run compiles)", len(scenes), work
+    )

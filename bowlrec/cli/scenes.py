@@ -15,10 +15,10 @@ from ._common import (
     QuietOption,
     archive_errors,
     fail,
-    interactive,
     load_scene_or_exit,
     open_archive,
     summary_json,
+    with_progress,
     with_status,
 )
 from ._outputs import (
@@ -231,7 +231,12 @@ def paper(
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
 
-    rows = run_with_progress(quiet, lambda cb: run_paper_cases(rtol=rtol, progress=cb))
+    rows = with_progress(
+        quiet,
+        "Table III (first run compiles the kernels)",
+        18,
+        lambda cb: run_paper_cases(rtol=rtol, progress=cb),
+    )
     if update_readme is not None:
         from bowlrec.paper_table import update_readme as _update
 
@@ -270,22 +275,6 @@ def paper(
     console.print(table)
     for key, text in NOTE_TEXT.items():
         console.print(f"({key}) {text}")
-
-
-def run_with_progress(quiet: bool, work: Any) -> Any:
-    if not interactive(quiet):
-        return work(None)
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
-
-    with Progress(
-        "[progress.description]{task.description}",
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        transient=True,
-    ) as progress:
-        task = progress.add_task("Table III (first run compiles the kernels)", total=18)
-        return work(lambda _case: progress.advance(task))
 
 
 @app.command()
