@@ -1,0 +1,594 @@
+"""Job specs: a base scene plus sweep axes, expanded into one set of field overrides per run.
+
+A job file (JSON or YAML, format ``bowlrec-job``) names a base scene (physical
+:class:`~bowlrec.spec.Scene` or bowler-language :class:`~bowlrec.bowling.scene.BowlerScene`,
+inline or as a path relative to the job file) and one sweep block, or a list of blocks whose
+points are concatenated. Kinds of block:
+
+* ``grid``: the cartesian product of its axes (first axis varies slowest); an axis is a list of
+  values or ``{"start", "stop", "num"}`` (evenly spaced, both ends included);
+* ``zip``: explicit lists of equal length, taken in parallel (point i takes value i of each);
+* ``points``: an explicit list of override sets, ``{"path": value, ...}`` each;
+* ``random``: ``n`` points drawn uniformly in ``{"low", "high"}`` per axis (NumPy PCG64, ``seed``);
+* ``lhs``: a Latin hypercube of ``n`` points in the same ranges (seeded): each axis range is cut
+  into ``n`` equal strata and every stratum holds exactly one point;
+* ``scenes``: an explicit list of whole scenes (paths or inline), the base is not used.
+
+A path addresses any scene field: dots between fields and ``[i]`` for an element of a vector,
+e.g. ``delivery.speed_mps``, ``delivery.omega_radps[1]``, ``ball.rg_m[0]``, ``pattern`` (bowler
+scenes take oil-pattern preset names). This is the notation of the validation messages. A value
+may be any JSON value (an object replaces a whole sub-model); on a physical base, a string at
+path ``ball`` names a library ball (``"name"`` or ``"name@version"``).
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import json
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+if TYPE_CHECKING:
+    from bowlrec.archive import BallLibrary
+    from bowlrec.core.plan import Plan
+    from bowlrec.spec import Scene
+
+__all__ = [
+    "JOB_FORMAT",
+    "GridSweep",
+    "JobError",
+    "JobSpec",
+    "LatinHypercubeSweep",
+    "Linspace",
+    "Point",
+    "PointsSweep",
+    "PreparedRun",
+    "RandomSweep",
+    "Range",
+    "ScenesSweep",
+    "Sweep",
+    "ZipSweep",
+    "apply_override",
+    "job_schema_text",
+    "latin_hypercube",
+    "load_job",
+    "library_lookup",
+    "parse_path",
+    "prepare_runs",
+]
+
+JOB_FORMAT = "bowlrec-job"
+
+PathKey = str | int
+
+
+class JobError(ValueError):
+    """The job itself is invalid (a bad path, a value invalid on its own, a missing file)."""
+
+
+class _JobModel(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Linspace(_JobModel):
+    """``num`` evenly spaced values from ``start`` to ``stop`` (both included; field units)."""
+
+    start: float = Field(allow_inf_nan=False)
+    stop: float = Field(allow_inf_nan=False)
+    num: int = Field(ge=1, le=100_000)
+
+    def values(self) -> list[float]:
+        return [float(v) for v in np.linspace(self.start, self.stop, self.num)]
+
+
+class Range(_JobModel):
+    """A closed interval [low, high] of a float field (field units)."""
+
+    low: float = Field(allow_inf_nan=False)
+    high: float = Field(allow_inf_nan=False)
+
+    @model_validator(mode="after")
+    def _ordered(self) -> Range:
+        if not self.low <= self.high:
+            raise ValueError(f"low = {self.low!r} must be <= high = {self.high!r}")
+        return self
+
+
+NonEmptyList = Annotated[list[Any], Field(min_length=1)]
+
+
+class GridSweep(_JobModel):
+    """Cartesian product of the axes (path -> values or linspace); the first axis is slowest."""
+
+    kind: Literal["grid"]
+    axes: dict[str, NonEmptyList | Linspace] = Field(min_length=1)
+
+    def points(self) -> list[dict[str, Any]]:
+        paths = list(self.axes)
+        lists = [_axis_values(self.axes[p]) for p in paths]
+        return [dict(zip(paths, combo, strict=True)) for combo in itertools.product(*lists)]
+
+
+class ZipSweep(_JobModel):
+    """Explicit value lists of equal length, taken in parallel."""
+
+    kind: Literal["zip"]
+    axes: dict[str, NonEmptyList] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _same_length(self) -> ZipSweep:
+        lengths = {p: len(v) for p, v in self.axes.items()}
+        if len(set(lengths.values())) > 1:
+            raise ValueError(f"zip axes must have equal lengths, got {lengths}")
+        return self
+
+    def points(self) -> list[dict[str, Any]]:
+        paths = list(self.axes)
+        columns = zip(*self.axes.values(), strict=True)
+        return [dict(zip(paths, vals, strict=True)) for vals in columns]
+
+
+class PointsSweep(_JobModel):
+    """An explicit list of override sets (path -> value)."""
+
+    kind: Literal["points"]
+    points_: list[dict[str, Any]] = Field(alias="points", min_length=1)
+
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+    def points(self) -> list[dict[str, Any]]:
+        return [dict(p) for p in self.points_]
+
+
+class RandomSweep(_JobModel):
+    """``n`` points, each axis uniform in [low, high], from ``numpy.random.default_rng(seed)``."""
+
+    kind: Literal["random"]
+    n: int = Field(ge=1, le=10_000_000)
+    seed: int = Field(ge=0)
+    axes: dict[str, Range] = Field(min_length=1)
+
+    def points(self) -> list[dict[str, Any]]:
+        u = np.random.default_rng(self.seed).random((self.n, len(self.axes)))
+        return _scale(u, self.axes)
+
+
+class LatinHypercubeSweep(_JobModel):
+    """``n`` points of a seeded Latin hypercube in the axes' ranges (one point per stratum)."""
+
+    kind: Literal["lhs"]
+    n: int = Field(ge=1, le=10_000_000)
+    seed: int = Field(ge=0)
+    axes: dict[str, Range] = Field(min_length=1)
+
+    def points(self) -> list[dict[str, Any]]:
+        return _scale(latin_hypercube(self.n, len(self.axes), self.seed), self.axes)
+
+
+class ScenesSweep(_JobModel):
+    """Whole scenes: paths (relative to the job file) or inline mappings; the base is unused."""
+
+    kind: Literal["scenes"]
+    scenes: list[str | dict[str, Any]] = Field(min_length=1)
+
+    def points(self) -> list[dict[str, Any]]:
+        return [{} for _ in self.scenes]
+
+
+AnySweep = GridSweep | ZipSweep | PointsSweep | RandomSweep | LatinHypercubeSweep | ScenesSweep
+Sweep = Annotated[AnySweep, Field(discriminator="kind")]
+
+
+class JobSpec(_JobModel):
+    """A batch job: a base scene, sweeps over its fields, and what to record."""
+
+    format: Literal["bowlrec-job"] = Field(
+        default="bowlrec-job", description="Marks a job file; always 'bowlrec-job'."
+    )
+    name: str = Field(default="job", description="Short identifier of the job.")
+    description: str = Field(default="", description="Free text.")
+    base: str | dict[str, Any] | None = Field(
+        default=None,
+        description="Base scene: a path (relative to the job file) or an inline scene, physical "
+        "or bowler-language ('format': 'bowler'); null: the default physical Scene().",
+    )
+    ball: str | None = Field(
+        default=None,
+        description="Library ball 'name' or 'name@version' replacing the base scene's ball "
+        "(physical base scenes only).",
+    )
+    sweep: Sweep | list[Sweep] | None = Field(
+        default=None,
+        description="One sweep block or a list of blocks (their points are concatenated); "
+        "null: the base scene alone.",
+    )
+    record: Literal["summary", "trajectory", "scene"] = Field(
+        default="summary",
+        description="summary: options.record = 'summary' (fast, no samples); trajectory: "
+        "samples (options.record 'rate' unless the scene records 'steps' or 'rate'); scene: "
+        "keep each scene's options.",
+    )
+    formats: list[Literal["mcap", "rrd"]] = Field(
+        default_factory=list,
+        description="Replay files written per new run into the replay directory (needs "
+        "record != 'summary' and the mcap / rerun extras).",
+    )
+
+    @model_validator(mode="after")
+    def _formats_need_samples(self) -> JobSpec:
+        if self.formats and self.record == "summary":
+            raise ValueError(
+                f"formats = {self.formats} need samples: set record to 'trajectory' or 'scene'"
+            )
+        return self
+
+    def blocks(self) -> list[AnySweep]:
+        """The sweep blocks as a list (empty when there is no sweep)."""
+        if self.sweep is None:
+            return []
+        return list(self.sweep) if isinstance(self.sweep, list) else [self.sweep]
+
+    def points(self) -> list[Point]:
+        """Every run of the job, in order: the block, its scene entry (``scenes``) and the
+        overrides (path -> value) to apply to the base."""
+        blocks = self.blocks()
+        if not blocks:
+            return [Point(0, 0, None, {})]
+        out: list[Point] = []
+        for b, block in enumerate(blocks):
+            for i, overrides in enumerate(block.points()):
+                scene = i if isinstance(block, ScenesSweep) else None
+                out.append(Point(len(out), b, scene, overrides))
+        return out
+
+
+@dataclass(frozen=True)
+class Point:
+    """One run of a job before validation: ``overrides`` maps dotted paths to values;
+    ``scene`` is the entry of a ``scenes`` block (None: the base scene)."""
+
+    index: int
+    block: int
+    scene: int | None
+    overrides: dict[str, Any]
+
+
+def _axis_values(axis: list[Any] | Linspace) -> list[Any]:
+    return axis.values() if isinstance(axis, Linspace) else list(axis)
+
+
+def _scale(u: np.ndarray, axes: Mapping[str, Range]) -> list[dict[str, Any]]:
+    """Map unit-cube samples (n, d) to the axes' ranges as Python floats."""
+    lows = np.array([r.low for r in axes.values()])
+    highs = np.array([r.high for r in axes.values()])
+    x = lows + u * (highs - lows)
+    paths = list(axes)
+    return [{p: float(v) for p, v in zip(paths, row, strict=True)} for row in x]
+
+
+def latin_hypercube(n: int, d: int, seed: int) -> np.ndarray:
+    """(n, d) samples in [0, 1): column j holds one point in each stratum [k/n, (k+1)/n).
+
+    Each column is an independent random permutation of the strata plus a uniform jitter
+    within the stratum (``numpy.random.default_rng(seed)``).
+    """
+    rng = np.random.default_rng(seed)
+    strata = np.stack([rng.permutation(n) for _ in range(d)], axis=1)
+    return np.asarray((strata + rng.random((n, d))) / n)
+
+
+# -- paths ------------------------------------------------------------------------------------
+
+_PATH = re.compile(r"[A-Za-z_]\w*(?:\.[A-Za-z_]\w*|\[\d+\])*")
+_KEY = re.compile(r"([A-Za-z_]\w*)|\[(\d+)\]")
+
+
+def parse_path(path: str) -> tuple[PathKey, ...]:
+    """``"delivery.omega_radps[1]"`` -> ``("delivery", "omega_radps", 1)``."""
+    if not _PATH.fullmatch(path):
+        raise JobError(
+            f"path {path!r} is not a field path: write field names separated by dots and vector "
+            "elements as [i], e.g. 'delivery.speed_mps' or 'delivery.omega_radps[1]'"
+        )
+    return tuple(
+        m.group(1) if m.group(1) is not None else int(m.group(2)) for m in _KEY.finditer(path)
+    )
+
+
+def _label(keys: Sequence[PathKey]) -> str:
+    out = ""
+    for k in keys:
+        out += f"[{k}]" if isinstance(k, int) else (f".{k}" if out else k)
+    return out
+
+
+def apply_override(data: dict[str, Any], path: str, value: Any) -> None:
+    """Set ``path`` in the full scene mapping ``data`` (in place); JobError if it does not
+    address an existing field (the message lists the fields or the vector length)."""
+    keys = parse_path(path)
+    node: Any = data
+    for depth, key in enumerate(keys):
+        where = _label(keys[:depth]) or "the scene"
+        last = depth == len(keys) - 1
+        if isinstance(key, str):
+            if not isinstance(node, dict):
+                kind = "null" if node is None else type(node).__name__
+                raise JobError(
+                    f"path {path!r}: {where} is {kind} in the base scene, it has no field "
+                    f"{key!r} (set {where} in the base scene, or sweep it whole)"
+                )
+            if key not in node:
+                raise JobError(
+                    f"path {path!r}: {where} has no field {key!r}; fields: {', '.join(node)}"
+                )
+        else:
+            if not isinstance(node, list):
+                kind = "null" if node is None else type(node).__name__
+                raise JobError(
+                    f"path {path!r}: {where} is {kind} in the base scene, not a vector; "
+                    f"[{key}] needs a vector (set {where} in the base scene, or sweep it whole)"
+                )
+            if key >= len(node):
+                raise JobError(
+                    f"path {path!r}: {where} has {len(node)} elements, index {key} is out of "
+                    f"range (0..{len(node) - 1})"
+                )
+        if last:
+            node[key] = value
+        else:
+            node = node[key]
+
+
+# -- loading ------------------------------------------------------------------------------------
+
+
+def load_job(path: str | Path) -> JobSpec:
+    """Read and validate a job file (.json, .yaml, .yml); JobError with field-named messages."""
+    from bowlrec.spec import format_validation_error
+    from bowlrec.spec.loading import read_mapping
+
+    p = Path(path)
+    try:
+        data = read_mapping(p)
+    except (OSError, ValueError) as err:
+        raise JobError(f"{p}: {err}") from err
+    try:
+        return JobSpec.model_validate(data)
+    except ValidationError as err:
+        raise JobError(
+            f"{p}: invalid job\n{format_validation_error(err).replace('scene', 'job', 1)}"
+        ) from err
+
+
+def job_schema_text() -> str:
+    """Canonical text of the job's JSON Schema (the committed ``schemas/job.schema.json``)."""
+    schema = JobSpec.model_json_schema(by_alias=True)
+    return json.dumps(schema, indent=2, sort_keys=True) + "\n"
+
+
+#: a library lookup: "name" or "name@version" -> (ball spec mapping, "name@version")
+BallLookup = Callable[[str], tuple[dict[str, Any], str]]
+
+
+def library_lookup(balls: BallLibrary | None) -> BallLookup:
+    """A :data:`BallLookup` over an archive's ball library (JobError when missing)."""
+
+    def lookup(ref: str) -> tuple[dict[str, Any], str]:
+        from bowlrec.archive import BallNotFoundError
+
+        if balls is None:
+            raise JobError(f"library ball {ref!r}: no archive (ball library) was given")
+        try:
+            entry = balls.get(ref)
+        except (BallNotFoundError, ValueError) as err:
+            raise JobError(f"library ball {ref!r}: {err}") from err
+        return entry.ball.model_dump(mode="json"), entry.ref
+
+    return lookup
+
+
+@dataclass(frozen=True)
+class PreparedRun:
+    """One run ready to simulate, or its failure before simulation.
+
+    params: the table's parameter columns (the overrides; ``scene`` for a ``scenes`` block);
+    scene/plan/run_id: the validated physical scene, its resolved Plan and content ID (None when
+    ``error`` says why the combination is invalid); ball_ref: the library ball used, if any.
+    """
+
+    index: int
+    params: dict[str, Any]
+    scene: Scene | None = None
+    plan: Plan | None = None
+    run_id: str | None = None
+    ball_ref: str | None = None
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class _Base:
+    bowler: bool
+    data: dict[str, Any]
+    ball_ref: str | None
+
+
+def _model(bowler: bool) -> type[BaseModel]:
+    if bowler:
+        from bowlrec.bowling.scene import BowlerScene
+
+        return BowlerScene
+    from bowlrec.spec import Scene
+
+    return Scene
+
+
+def _read_scene_mapping(entry: str | dict[str, Any], base_dir: Path, what: str) -> dict[str, Any]:
+    from bowlrec.spec.loading import read_mapping
+
+    if isinstance(entry, dict):
+        return copy.deepcopy(entry)
+    path = base_dir / entry
+    try:
+        data = read_mapping(path)
+    except (OSError, ValueError) as err:
+        raise JobError(f"{what}: {err}") from err
+    if not isinstance(data, dict):
+        raise JobError(f"{what}: {path} does not hold a scene mapping")
+    return data
+
+
+def _full_mapping(raw: dict[str, Any], what: str) -> tuple[bool, dict[str, Any]]:
+    """Validate a scene mapping and return (bowler?, every field as JSON values)."""
+    from bowlrec.spec import format_validation_error
+
+    bowler = raw.get("format") == "bowler"
+    try:
+        model = _model(bowler).model_validate(raw)
+    except ValidationError as err:
+        raise JobError(f"{what}: invalid scene\n{format_validation_error(err)}") from err
+    return bowler, model.model_dump(mode="json")
+
+
+def _base(job: JobSpec, base_dir: Path, lookup: BallLookup) -> _Base:
+    raw = {} if job.base is None else _read_scene_mapping(job.base, base_dir, "base")
+    bowler, data = _full_mapping(raw, "base")
+    ref = None
+    if job.ball is not None:
+        if bowler:
+            raise JobError(
+                "ball: library balls are physical specs; use them with a physical base scene "
+                "(a bowler scene describes its ball by its spec sheet and layout)"
+            )
+        data["ball"], ref = lookup(job.ball)
+    return _Base(bowler, data, ref)
+
+
+def _own_errors(err: ValidationError, path: str) -> list[str]:
+    """The lines of the message that concern ``path`` itself (or a field below it)."""
+    from bowlrec.spec import format_validation_error
+
+    label = _label(parse_path(path))
+    return [
+        line
+        for line in format_validation_error(err).splitlines()
+        if line.startswith((label + ":", label + ".", label + "["))
+    ]
+
+
+def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
+    """Each axis value applied alone to the base: bad paths, and values invalid by themselves
+    (not merely in combination with other fields) raise JobError naming the path."""
+    model = _model(base.bowler)
+    for b, block in enumerate(job.blocks()):
+        if isinstance(block, ScenesSweep | PointsSweep):
+            continue
+        for path, axis in block.axes.items():
+            if isinstance(axis, Range):
+                values: list[Any] = [axis.low, axis.high]
+            else:
+                values = _axis_values(axis)
+            for value in values:
+                where = f"sweep[{b}].axes[{path!r}]"
+                data = copy.deepcopy(base.data)
+                try:
+                    apply_override(data, path, value)
+                    _library_ball(data, base.bowler, lookup)
+                except JobError as err:
+                    raise JobError(f"{where}: {err}") from err
+                try:
+                    model.model_validate(data)
+                except ValidationError as err:
+                    own = _own_errors(err, path)
+                    if own:
+                        raise JobError(
+                            f"{where}: value {value!r} is invalid\n" + "\n".join(own)
+                        ) from err
+
+
+def _library_ball(data: dict[str, Any], bowler: bool, lookup: BallLookup) -> str | None:
+    """Replace a library reference at ``ball`` by its spec; returns the reference used."""
+    if not isinstance(data.get("ball"), str):
+        return None
+    if bowler:
+        raise JobError("ball: library balls (name@version) need a physical base scene")
+    data["ball"], ref = lookup(data["ball"])
+    return ref
+
+
+def _set_record(data: dict[str, Any], record: str) -> None:
+    options = data.setdefault("options", {})
+    if record == "summary":
+        options["record"] = "summary"
+    elif record == "trajectory" and options.get("record", "steps") == "summary":
+        options["record"] = "rate"
+
+
+def _prepare_one(
+    index: int, params: dict[str, Any], bowler: bool, data: dict[str, Any], ref: str | None
+) -> PreparedRun:
+    """Validate, convert (bowler scenes), resolve and hash one scene mapping."""
+    from bowlrec.archive import run_id
+    from bowlrec.spec import Scene, format_validation_error
+
+    try:
+        model = _model(bowler).model_validate(data)
+    except ValidationError as err:
+        return PreparedRun(index, params, error=f"invalid scene: {format_validation_error(err)}")
+    try:
+        scene = model.to_scene() if bowler else model  # type: ignore[attr-defined]
+        assert isinstance(scene, Scene)
+        plan = scene.resolve()
+    except ValidationError as err:
+        return PreparedRun(index, params, error=f"invalid scene: {format_validation_error(err)}")
+    except (ValueError, ArithmeticError) as err:
+        return PreparedRun(index, params, error=f"{type(err).__name__}: {err}")
+    return PreparedRun(index, params, scene, plan, run_id(plan), ref)
+
+
+def prepare_runs(
+    job: JobSpec,
+    *,
+    base_dir: str | Path = ".",
+    balls: BallLibrary | None = None,
+) -> list[PreparedRun]:
+    """Expand the job and validate every run (in this process; about 1 ms per run).
+
+    Raises JobError for a job that is wrong as a whole (base scene, paths, a value invalid on
+    its own, unknown library ball); an invalid combination becomes a PreparedRun with
+    ``error`` set. ``base_dir``: where relative scene paths are resolved (the job file's
+    directory); ``balls``: the archive's ball library for ``name@version`` references.
+    """
+    root = Path(base_dir)
+    lookup = library_lookup(balls)
+    base = _base(job, root, lookup)
+    _check_values(job, base, lookup)
+    blocks = job.blocks()
+    out: list[PreparedRun] = []
+    for point in job.points():
+        block = blocks[point.block] if blocks else None
+        if isinstance(block, ScenesSweep) and point.scene is not None:
+            entry = block.scenes[point.scene]
+            label = entry if isinstance(entry, str) else str(entry.get("name", point.scene))
+            params: dict[str, Any] = {"scene": label}
+            what = f"sweep[{point.block}].scenes[{point.scene}]"
+            data = _read_scene_mapping(entry, root, what)
+            bowler, ref = data.get("format") == "bowler", None
+        else:
+            params = dict(point.overrides)
+            data, bowler, ref = copy.deepcopy(base.data), base.bowler, base.ball_ref
+            for path, value in point.overrides.items():
+                try:
+                    apply_override(data, path, value)
+                except JobError as err:
+                    raise JobError(f"sweep[{point.block}] point {point.index}: {err}") from err
+        ref = _library_ball(data, bowler, lookup) or ref
+        _set_record(data, job.record)
+        out.append(_prepare_one(point.index, params, bowler, data, ref))
+    return out
