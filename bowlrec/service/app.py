@@ -1,0 +1,501 @@
+"""The FastAPI application: scenes, runs and their files, the ball library and jobs.
+
+Errors the service raises itself are ``{"detail": "<message>"}``: 401 (missing or wrong bearer
+token), 404 (unknown run, ball or job), 409 (the request conflicts with the state: replay of a
+summary-only run, job not cancellable/resumable), 422 (an invalid scene, ball or job spec -- one
+``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
+-- or a bad run filter), 501 (an optional format library is not installed). Malformed requests
+that FastAPI rejects before they reach the service (a body that is not JSON, a query parameter of
+the wrong type) keep FastAPI's own 422 shape ``{"detail": [{"loc": ..., "msg": ...}]}``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hmac
+import logging
+import os
+import threading
+from collections.abc import AsyncIterator, Callable
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Body, Depends, FastAPI, HTTPException, Query, Request, Response
+from fastapi.responses import FileResponse, JSONResponse
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+from starlette.concurrency import run_in_threadpool
+
+from bowlrec.archive import Archive, BallNotFoundError, RunNotFoundError
+from bowlrec.archive.index import IndexError_
+
+from .jobs import JobConflictError, JobManager, JobNotFoundError
+from .models import (
+    BallAddRequest,
+    BallAddResponse,
+    BallEntryModel,
+    BallRemoved,
+    ErrorResponse,
+    Health,
+    JobStatus,
+    RunList,
+    RunRow,
+    SpecError,
+    SubmitResponse,
+    SummaryModel,
+    parse_ball_spec,
+    parse_scene_spec,
+)
+
+__all__ = ["create_app"]
+
+log = logging.getLogger("bowlrec.service")
+
+#: file kinds of ``GET /runs/{id}/files/{kind}``: (suffix, media type)
+FILE_KINDS: dict[str, tuple[str, str]] = {
+    "hdf5": (".h5", "application/x-hdf5"),
+    "mcap": (".mcap", "application/octet-stream"),
+    "rrd": (".rrd", "application/octet-stream"),
+}
+FileKind = Literal["hdf5", "mcap", "rrd"]
+
+_ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorResponse} for code in (401, 404, 409, 422, 501)
+}
+
+SCENE_EXAMPLE = {
+    "summary-only": {
+        "summary": "A physical scene (defaults for everything not given)",
+        "value": {
+            "name": "quick",
+            "delivery": {"speed_mps": 8.0},
+            "options": {"record": "summary"},
+        },
+    },
+    "bowler": {
+        "summary": "A bowler-language scene",
+        "value": {
+            "format": "bowler",
+            "delivery": {"speed_mph": 17, "rev_rate_rpm": 300},
+            "options": {"record": "rate", "record_dt_s": 0.005},
+        },
+    },
+}
+
+JOB_EXAMPLE = {
+    "grid": {
+        "summary": "A speed x rev-rate grid on a physical base scene",
+        "value": {
+            "format": "bowlrec-job",
+            "name": "speed-rev",
+            "base": {"name": "grid"},
+            "sweep": {
+                "kind": "grid",
+                "axes": {
+                    "delivery.speed_mps": {"start": 7.0, "stop": 9.0, "num": 5},
+                    "delivery.omega_radps[1]": [20.0, 25.0, 30.0],
+                },
+            },
+            "record": "summary",
+        },
+    },
+    "scenes": {
+        "summary": "Explicit scenes (shorthand)",
+        "value": {"name": "two", "scenes": [{"delivery": {"speed_mps": 7.5}}, {"name": "b"}]},
+    },
+}
+
+
+class _State:
+    """What the endpoints share: the archive, the jobs and per-file generation locks."""
+
+    def __init__(self, archive: Archive, jobs: JobManager, token: str | None) -> None:
+        self.archive = archive
+        self.jobs = jobs
+        self.token = token
+        self.cache_dir = archive.root / "cache"
+        self._file_locks: dict[Path, threading.Lock] = {}
+        self._mutex = threading.Lock()
+
+    def file_lock(self, path: Path) -> threading.Lock:
+        with self._mutex:
+            return self._file_locks.setdefault(path, threading.Lock())
+
+
+def _state(request: Request) -> _State:
+    state: _State = request.app.state.bowlrec
+    return state
+
+
+_bearer = HTTPBearer(auto_error=False, description="The server's token (serve --token-env).")
+
+
+def _check_token(
+    request: Request,
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
+) -> None:
+    token = _state(request).token
+    if token is None:
+        return
+    given = credentials.credentials if credentials is not None else ""
+    if not hmac.compare_digest(given.encode(), token.encode()):
+        raise HTTPException(
+            401,
+            "missing or wrong bearer token (send 'Authorization: Bearer <token>')",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+
+
+StateDep = Annotated[_State, Depends(_state)]
+
+
+def _bad(status: int, message: str) -> HTTPException:
+    return HTTPException(status, message)
+
+
+# -- runs ----------------------------------------------------------------------------------------
+
+runs = APIRouter(prefix="/runs", tags=["runs"], responses=_ERRORS)
+
+
+@runs.post("", response_model=SubmitResponse, status_code=201)
+def submit_scene(
+    state: StateDep,
+    response: Response,
+    scene: Annotated[dict[str, Any], Body(openapi_examples=SCENE_EXAMPLE)],
+) -> SubmitResponse:
+    """Simulate a scene (physical, or bowler-language with ``"format": "bowler"``) and archive
+    it. Synchronous; idempotent: the same scene gives the same run ID, and a scene already
+    archived returns 200 with ``added: false`` (201 when it was added). ``ball`` may be a
+    library reference ``"name"`` or ``"name@version"``."""
+    try:
+        parsed = parse_scene_spec(scene, state.archive.balls)
+        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref)
+    except (SpecError, ValueError) as err:  # ValueError: a scene that cannot be resolved
+        raise _bad(422, str(err)) from None
+    if result.trajectory is None:  # pragma: no cover - simulate always returns it
+        raise _bad(500, "the archive returned no trajectory")
+    if not result.added:
+        response.status_code = 200
+    return SubmitResponse(
+        run_id=result.run_id,
+        added=result.added,
+        name=parsed.scene.name,
+        ball_ref=parsed.ball_ref,
+        summary=SummaryModel(**result.trajectory.summary.to_dict()),
+    )
+
+
+@runs.get("", response_model=RunList)
+def list_runs(
+    state: StateDep,
+    ball: Annotated[str | None, Query(description="Library ball NAME or NAME@VERSION.")] = None,
+    pattern: Annotated[str | None, Query(description="Lane pattern (friction kind).")] = None,
+    outcome: Annotated[str | None, Query(description="pins, gutter, stopped, ...")] = None,
+    name: Annotated[str | None, Query(description="Scene name.")] = None,
+    where: Annotated[
+        list[str] | None,
+        Query(description="Condition on an index column, repeatable: hook_m>=0.1, speed_mps<8."),
+    ] = None,
+    order_by: Annotated[
+        str, Query(description="Index column to sort by ('-' prefix: descending).")
+    ] = "created_at",
+    limit: Annotated[int | None, Query(ge=0, description="At most this many rows.")] = None,
+) -> RunList:
+    """Index rows of the matching runs (reads only the index)."""
+    try:
+        rows = state.archive.list_runs(
+            ball=ball,
+            pattern=pattern,
+            outcome=outcome,
+            name=name,
+            where=where or (),
+            order_by=order_by,
+            limit=limit,
+        )
+    except (IndexError_, ValueError) as err:
+        raise _bad(422, str(err)) from None
+    return RunList(count=len(rows), runs=[RunRow(**r) for r in rows])
+
+
+def _resolve(state: _State, run_id: str) -> str:
+    try:
+        return state.archive.resolve_id(run_id)
+    except RunNotFoundError as err:
+        raise _bad(404, str(err)) from None
+
+
+@runs.get("/{run_id}", response_model=RunRow)
+def get_run(state: StateDep, run_id: str) -> RunRow:
+    """The run's index row (summary metrics, ball, pattern, provenance); ``run_id`` may be a
+    unique prefix of 4+ characters."""
+    return RunRow(**state.archive.row(_resolve(state, run_id)))
+
+
+@runs.get("/{run_id}/spec", response_model=dict[str, Any])
+def get_spec(state: StateDep, run_id: str) -> dict[str, Any]:
+    """The scene as archived (physical scene JSON; POSTing it back gives the same run ID)."""
+    from bowlrec.sinks.hdf5_run import read_run_header
+    from bowlrec.spec import Scene
+
+    rid = _resolve(state, run_id)
+    attrs = read_run_header(state.archive.run_path(rid))
+    scene = Scene.model_validate_json(attrs["scene_json"])
+    spec: dict[str, Any] = scene.model_dump(mode="json")
+    return spec
+
+
+def _cached_replay(state: _State, rid: str, kind: str) -> Path:
+    """The MCAP or RRD file of a run, generated once into ``ARCHIVE/cache/<kind>/`` (the
+    writers rename a complete file into place, so readers never see a partial one)."""
+    from bowlrec.sinks.common import SamplesRequiredError
+
+    suffix = FILE_KINDS[kind][0]
+    path = state.cache_dir / kind / rid[:2] / f"{rid}{suffix}"
+    with state.file_lock(path):
+        if path.exists():
+            return path
+        run = state.archive.run_data(rid)
+        try:
+            if kind == "mcap":
+                from bowlrec.sinks.mcap_file import write_mcap
+
+                write_mcap(run, path)
+            else:
+                from bowlrec.sinks.rerun_recording import write_rrd
+
+                write_rrd(run, path)
+        except SamplesRequiredError as err:
+            raise _bad(409, f"run {rid} cannot be replayed: {err}") from None
+    return path
+
+
+@runs.get(
+    "/{run_id}/files/{kind}",
+    response_class=FileResponse,
+    responses={200: {"content": {"application/octet-stream": {}, "application/x-hdf5": {}}}},
+)
+def get_file(state: StateDep, run_id: str, kind: FileKind) -> FileResponse:
+    """The run's HDF5 file (``hdf5``, the archived run file itself), or its replay as MCAP
+    (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first request and cached
+    in the archive. 409 for a summary-only run (no samples to replay)."""
+    rid = _resolve(state, run_id)
+    try:
+        if kind == "hdf5":
+            path = state.archive.run_path(rid)
+        else:
+            path = _cached_replay(state, rid, kind)
+    except ImportError as err:
+        extra = "mcap" if kind == "mcap" else "rerun"
+        raise _bad(501, f"{kind} export needs bowlrec[{extra}] on the server: {err}") from None
+    suffix, media = FILE_KINDS[kind]
+    return FileResponse(path, media_type=media, filename=f"{rid}{suffix}")
+
+
+# -- balls ---------------------------------------------------------------------------------------
+
+balls = APIRouter(prefix="/balls", tags=["balls"], responses=_ERRORS)
+
+
+def _entry(entry: Any) -> BallEntryModel:
+    d = entry.to_json_dict()
+    return BallEntryModel(ref=entry.ref, sha=entry.sha, **d)
+
+
+@balls.get("", response_model=list[BallEntryModel])
+def list_balls(
+    state: StateDep,
+    name: Annotated[str | None, Query(description="Only this name.")] = None,
+    all_versions: Annotated[bool, Query(description="Every version, not only the latest.")] = False,
+) -> list[BallEntryModel]:
+    """Library balls sorted by name (latest version of each unless ``all_versions``)."""
+    return [_entry(e) for e in state.archive.balls.list(name, all_versions=all_versions)]
+
+
+@balls.get("/export", response_model=dict[str, Any])
+def export_balls(state: StateDep) -> dict[str, Any]:
+    """Every version of every ball as a ``bowlrec-ball-library`` document
+    (``bowlrec balls import`` or ``POST /balls/import`` read it)."""
+    return state.archive.balls.export_json()
+
+
+@balls.post("/import", response_model=list[BallAddResponse])
+def import_balls(state: StateDep, document: Annotated[dict[str, Any], Body()]) -> Any:
+    """Add every spec of an exported library document (specs already present are skipped)."""
+    from pydantic import ValidationError
+
+    from bowlrec.spec import format_validation_error
+
+    try:
+        pairs = state.archive.balls.import_json(document)
+    except ValidationError as err:
+        raise _bad(422, format_validation_error(err)) from None
+    except (ValueError, KeyError, TypeError) as err:
+        raise _bad(422, f"not a ball library document: {err}") from None
+    return [BallAddResponse(added=added, entry=_entry(e)) for e, added in pairs]
+
+
+@balls.get("/{ref}", response_model=BallEntryModel)
+def get_ball(state: StateDep, ref: str) -> BallEntryModel:
+    """One entry: ``name`` (latest version) or ``name@version``."""
+    try:
+        return _entry(state.archive.balls.get(ref))
+    except BallNotFoundError as err:
+        raise _bad(404, str(err)) from None
+    except ValueError as err:
+        raise _bad(422, str(err)) from None
+
+
+@balls.post("", response_model=BallAddResponse, status_code=201)
+def add_ball(state: StateDep, body: BallAddRequest, response: Response) -> BallAddResponse:
+    """Store a spec under a name: 201 with a new version, or 200 with ``added: false`` when the
+    latest version has this exact spec."""
+    try:
+        entry, added = state.archive.balls.add(body.name, parse_ball_spec(body.spec), body.note)
+    except ValueError as err:  # SpecError or a bad name
+        raise _bad(422, str(err)) from None
+    if not added:
+        response.status_code = 200
+    return BallAddResponse(added=added, entry=_entry(entry))
+
+
+@balls.delete("/{ref}", response_model=BallRemoved)
+def remove_ball(state: StateDep, ref: str) -> BallRemoved:
+    """Delete one version, ``name@version`` (runs that used it keep their copy of the spec)."""
+    from bowlrec.archive import parse_ball_ref
+
+    try:
+        name, version = parse_ball_ref(ref)
+    except ValueError as err:
+        raise _bad(422, str(err)) from None
+    if version is None:
+        raise _bad(422, f"give the version to delete: {ref}@VERSION")
+    try:
+        state.archive.balls.remove(name, version)
+    except BallNotFoundError as err:
+        raise _bad(404, str(err)) from None
+    return BallRemoved(removed=f"{name}@{version}")
+
+
+# -- jobs ----------------------------------------------------------------------------------------
+
+jobs = APIRouter(prefix="/jobs", tags=["jobs"], responses=_ERRORS)
+
+
+def _job_call(fn: Callable[[str], JobStatus], job_id: str) -> JobStatus:
+    try:
+        return fn(job_id)
+    except JobNotFoundError as err:
+        raise _bad(404, str(err)) from None
+    except JobConflictError as err:
+        raise _bad(409, str(err)) from None
+
+
+@jobs.post("", response_model=JobStatus, status_code=202)
+def submit_job(
+    state: StateDep, job: Annotated[dict[str, Any], Body(openapi_examples=JOB_EXAMPLE)]
+) -> JobStatus:
+    """Queue a batch job (a ``bowlrec-job`` spec: base scene + sweeps, see
+    ``schemas/job.schema.json``) or ``{"name": ..., "scenes": [...]}`` (explicit scenes, each
+    keeping its own options); poll ``GET /jobs/{job_id}``. A job invalid as a whole gets 422; a
+    run invalid only in combination becomes a failure row. Scenes must be inline."""
+    try:
+        return state.jobs.submit(job)
+    except SpecError as err:
+        raise _bad(422, str(err)) from None
+
+
+@jobs.get("", response_model=list[JobStatus])
+def list_jobs(state: StateDep) -> list[JobStatus]:
+    """Every job of this archive, newest first."""
+    return state.jobs.list()
+
+
+@jobs.get("/{job_id}", response_model=JobStatus)
+def get_job(state: StateDep, job_id: str) -> JobStatus:
+    """Status and progress (done/failed/skipped of total), failures and the run IDs."""
+    return _job_call(state.jobs.get, job_id)
+
+
+@jobs.post("/{job_id}/cancel", response_model=JobStatus, status_code=202)
+def cancel_job(state: StateDep, job_id: str) -> JobStatus:
+    """Stop a queued or running job after the scene in progress (finished runs stay)."""
+    return _job_call(state.jobs.cancel, job_id)
+
+
+@jobs.post("/{job_id}/resume", response_model=JobStatus, status_code=202)
+def resume_job(state: StateDep, job_id: str) -> JobStatus:
+    """Queue an interrupted, cancelled or failed job again; archived runs are skipped."""
+    return _job_call(state.jobs.resume, job_id)
+
+
+# -- the app -------------------------------------------------------------------------------------
+
+
+def _warm_up() -> None:
+    """Load the compiled kernels (numba's on-disk cache) before the first request."""
+    import bowlrec
+    from bowlrec.spec import Scene
+
+    for delivery in ({}, {"omega_radps": [-16.62, 23.74, 7.765]}):
+        bowlrec.simulate(
+            Scene.model_validate({"delivery": delivery, "options": {"record": "summary"}})
+        )
+
+
+def create_app(
+    archive_dir: str | os.PathLike[str],
+    token: str | None = None,
+    *,
+    warm_up: bool = True,
+    job_workers: int = 0,
+    scheduler: str | None = None,
+) -> FastAPI:
+    """The service for the archive at ``archive_dir`` (created if missing).
+
+    Raises :class:`~bowlrec.service.jobs.JobsLockedError` when another live server uses the
+    archive. ``token``: when given, every request except ``/health`` and the docs needs
+    ``Authorization: Bearer <token>`` (401 otherwise). ``warm_up`` loads the kernels at
+    start-up so the first submission is not slower than the rest. Jobs simulate in the
+    server process (``job_workers`` 0), a local pool of ``job_workers`` processes, or on the
+    dask.distributed cluster at ``scheduler``.
+    """
+    import bowlrec
+
+    archive = Archive(archive_dir)
+    state = _State(
+        archive, JobManager(archive, workers=job_workers, scheduler=scheduler), token or None
+    )
+    state.jobs.open()  # fails now (JobsLockedError) if another server runs this archive's jobs
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        state.jobs.start()
+        if warm_up:
+            await run_in_threadpool(_warm_up)
+        try:
+            yield
+        finally:
+            await run_in_threadpool(state.jobs.stop)
+
+    app = FastAPI(
+        title="bowlrec",
+        version=bowlrec.__version__,
+        summary="Bowling-ball motion simulator and trajectory archive",
+        description=__doc__,
+        lifespan=lifespan,
+    )
+    app.state.bowlrec = state
+    secured = [Depends(_check_token)]
+    for router in (runs, balls, jobs):
+        app.include_router(router, dependencies=secured)
+
+    @app.get("/health", response_model=Health, tags=["service"])
+    def health() -> Health:
+        """Liveness and the run count; never needs the token."""
+        return Health(version=bowlrec.__version__, runs=len(archive), auth=state.token is not None)
+
+    @app.exception_handler(SpecError)
+    async def _spec_error(request: Request, err: SpecError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=422)
+
+    return app

@@ -1,0 +1,430 @@
+"""Asynchronous jobs: batch job specs (:mod:`bowlrec.batch`) run into the archive in the background.
+
+A job is a ``bowlrec-job`` spec (a base scene plus sweeps, see :class:`bowlrec.batch.JobSpec`),
+or the shorthand ``{"name": ..., "scenes": [...]}`` (a ``scenes`` sweep that keeps each scene's
+own ``options``). At submission the job is expanded and every run validated
+(:func:`bowlrec.batch.prepare_runs`; library balls are frozen to ``name@version``), then persisted
+in ``ARCHIVE/jobs/``: ``<id>.spec.json`` (the job and every prepared run: physical scene, content
+run ID or the error that makes it a failure row; written once) and ``<id>.json`` (the status
+record, replaced atomically as the job progresses). One background thread runs the jobs in
+order through :func:`bowlrec.batch.run_prepared` (in this process, a local process pool or a Dask
+cluster); this process is the archive's single writer.
+
+A run is visible only once its file is renamed into place and its index row committed, and the
+archive is the source of truth for progress: when the server starts, a job that was queued or
+running (the server was killed or stopped) is marked ``interrupted`` with ``done`` recomputed
+from the archive (its runs that exist). ``resume`` re-queues it; runs already archived are
+skipped, never simulated twice, so a finished run is neither lost nor duplicated.
+
+One server per archive runs jobs: the manager holds an exclusive lock on ``jobs/.lock`` for its
+lifetime (released by the OS when the process dies).
+"""
+
+from __future__ import annotations
+
+import builtins
+import fcntl
+import json
+import logging
+import queue
+import threading
+import time
+import uuid
+from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import IO, TYPE_CHECKING, Any
+
+from bowlrec.archive import Archive
+from bowlrec.sinks.atomic import atomic_path, remove_stale_parts
+
+if TYPE_CHECKING:
+    from bowlrec.batch import JobSpec, PreparedRun
+
+from .models import JobFailure, JobStatus, JobStatusName, SpecError
+
+__all__ = ["JobConflictError", "JobManager", "JobNotFoundError", "JobsLockedError", "parse_job"]
+
+log = logging.getLogger("bowlrec.service.jobs")
+
+#: statuses after which nothing runs until a resume
+FINAL: frozenset[str] = frozenset({"done", "failed", "interrupted", "cancelled"})
+#: seconds between progress records written while a job runs (state changes are always written)
+PERSIST_INTERVAL_S = 0.5
+
+
+class JobNotFoundError(KeyError):
+    """No job with that ID."""
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
+class JobConflictError(RuntimeError):
+    """The job is not in a state that allows the request (HTTP 409)."""
+
+
+class JobsLockedError(RuntimeError):
+    """Another live server runs this archive's jobs."""
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="milliseconds")
+
+
+def parse_job(body: Any) -> JobSpec:
+    """A :class:`~bowlrec.batch.JobSpec` from a request body (the ``scenes`` shorthand
+    included); :class:`SpecError` with field-named lines when invalid. Scenes must be inline:
+    paths would name files on the server."""
+    from pydantic import ValidationError
+
+    from bowlrec.batch import JobSpec
+    from bowlrec.batch.job import ScenesSweep
+    from bowlrec.spec import format_validation_error
+
+    if not isinstance(body, dict):
+        raise SpecError(f"job: expected a JSON object, got {type(body).__name__}")
+    if "scenes" in body and "sweep" not in body and "format" not in body:
+        extra = sorted(set(body) - {"name", "description", "scenes"})
+        if extra:
+            raise SpecError(f"{extra[0]}: not allowed with 'scenes' (use a bowlrec-job spec)")
+        body = {
+            "name": body.get("name", "job"),
+            "description": body.get("description", ""),
+            "sweep": {"kind": "scenes", "scenes": body["scenes"]},
+            "record": "scene",
+        }
+    try:
+        job = JobSpec.model_validate(body)
+    except ValidationError as err:
+        lines = format_validation_error(err).splitlines()
+        raise SpecError("\n".join(_root_as_job(line) for line in lines)) from None
+    if isinstance(job.base, str):
+        raise SpecError("base: give the base scene inline (a path would name a server file)")
+    for b, block in enumerate(job.blocks()):
+        if isinstance(block, ScenesSweep):
+            for i, entry in enumerate(block.scenes):
+                if isinstance(entry, str):
+                    raise SpecError(
+                        f"sweep[{b}].scenes[{i}]: give the scene inline (a path would name a "
+                        "server file)"
+                    )
+    return job
+
+
+@dataclass
+class JobRecord:
+    """The persisted state of one job (``jobs/<id>.json``); ``run_ids`` has one entry per run
+    of the job (None for a run that is invalid before simulation)."""
+
+    job_id: str
+    name: str
+    status: JobStatusName
+    total: int
+    run_ids: list[str | None]
+    created_at: str
+    updated_at: str
+    done: int = 0
+    failed: int = 0
+    skipped: int = 0
+    error: str | None = None
+    failures: list[dict[str, Any]] = field(default_factory=list)
+
+    def to_status(self, with_runs: bool = False) -> JobStatus:
+        return JobStatus(
+            job_id=self.job_id,
+            name=self.name,
+            status=self.status,
+            total=self.total,
+            done=self.done,
+            failed=self.failed,
+            skipped=self.skipped,
+            created_at=self.created_at,
+            updated_at=self.updated_at,
+            error=self.error,
+            resumable=self.status in FINAL and self.done < self.total,
+            run_ids=list(self.run_ids) if with_runs else None,
+            failures=[JobFailure(**f) for f in self.failures],
+        )
+
+    def archived(self, archive: Archive) -> int:
+        """Runs of this job that are in the archive (duplicates counted per run)."""
+        return sum(1 for r in self.run_ids if r is not None and archive.has_run(r))
+
+
+class JobManager:
+    """Submits, runs (one job at a time, FIFO), cancels, resumes and reports jobs.
+
+    ``workers``: 0 simulates in the job thread of this process, N > 0 in a local process pool
+    of N; ``scheduler``: a dask.distributed address (``tcp://host:port``) instead;
+    ``chunk_size``: runs per task sent to a worker (progress and cancellation granularity).
+    """
+
+    def __init__(
+        self,
+        archive: Archive,
+        *,
+        workers: int = 0,
+        scheduler: str | None = None,
+        chunk_size: int = 8,
+    ) -> None:
+        self.archive = archive
+        self.workers = workers
+        self.scheduler = scheduler
+        self.chunk_size = chunk_size
+        self.dir = archive.root / "jobs"
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self._lock_file: IO[str] | None = None
+        self._records: dict[str, JobRecord] = {}
+        self._cancel: dict[str, threading.Event] = {}
+        self._mutex = threading.Lock()
+        self._queue: queue.Queue[str | None] = queue.Queue()
+        self._stopping = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # -- life cycle ----------------------------------------------------------------------------
+
+    def open(self) -> None:
+        """Take the jobs lock and load the records, marking unfinished ones interrupted.
+
+        Raises :class:`JobsLockedError` when another live server holds the lock.
+        """
+        if self._lock_file is not None:
+            return
+        fh = open(self.dir / ".lock", "a")  # noqa: SIM115 - held for the manager's lifetime
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.close()
+            raise JobsLockedError(
+                f"another bowlrec server is running the jobs of {self.archive.root}"
+            ) from None
+        self._lock_file = fh
+        remove_stale_parts(self.dir)
+        for path in sorted(self.dir.glob("*.json")):
+            if path.name.endswith(".spec.json"):
+                continue
+            try:
+                rec = JobRecord(**json.loads(path.read_text()))
+            except (OSError, ValueError, TypeError) as err:
+                log.warning("skipping unreadable job record %s: %s", path, err)
+                continue
+            if rec.status in ("queued", "running"):
+                rec.status = "interrupted"
+                rec.done = rec.archived(self.archive)
+                rec.updated_at = _now()
+                self._persist(rec)
+            self._records[rec.job_id] = rec
+
+    def start(self) -> None:
+        """Open (if not yet) and start the worker thread."""
+        self.open()
+        self._thread = threading.Thread(target=self._worker, name="bowlrec-jobs", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 60.0) -> None:
+        """Stop after the runs in flight (kept); the running and queued jobs become
+        ``interrupted`` (resumable after a restart)."""
+        self._stopping.set()
+        with self._mutex:
+            for event in self._cancel.values():
+                event.set()
+        self._queue.put(None)
+        if self._thread is not None:
+            self._thread.join(timeout)
+        with self._mutex:
+            for rec in self._records.values():
+                if rec.status in ("queued", "running"):
+                    self._set(rec, "interrupted")
+        if self._lock_file is not None:
+            self._lock_file.close()
+            self._lock_file = None
+
+    # -- requests ------------------------------------------------------------------------------
+
+    def submit(self, body: Any) -> JobStatus:
+        """Validate and expand a job (:class:`SpecError` when the job as a whole is invalid;
+        an invalid combination becomes a failure row), persist it and queue it."""
+        from bowlrec.batch import JobError, prepare_runs
+
+        job = parse_job(body)
+        try:
+            prepared = prepare_runs(job, balls=self.archive.balls)
+        except JobError as err:
+            raise SpecError(str(err)) from None
+        items = [
+            {
+                "index": p.index,
+                "params": p.params,
+                "scene": None if p.scene is None else p.scene.model_dump(mode="json"),
+                "ball_ref": p.ball_ref,
+                "run_id": p.run_id,
+                "error": p.error,
+            }
+            for p in prepared
+        ]
+        now = _now()
+        rec = JobRecord(
+            job_id=uuid.uuid4().hex[:16],
+            name=job.name,
+            status="queued",
+            total=len(items),
+            run_ids=[p.run_id for p in prepared],
+            created_at=now,
+            updated_at=now,
+        )
+        with atomic_path(self._spec_path(rec.job_id)) as tmp:
+            tmp.write_text(json.dumps({"job": job.model_dump(mode="json"), "items": items}))
+        with self._mutex:
+            self._records[rec.job_id] = rec
+            self._cancel[rec.job_id] = threading.Event()
+            self._persist(rec)
+        self._queue.put(rec.job_id)
+        return rec.to_status()
+
+    def get(self, job_id: str, with_runs: bool = True) -> JobStatus:
+        with self._mutex:
+            return self._record(job_id).to_status(with_runs)
+
+    def list(self) -> builtins.list[JobStatus]:
+        """Every job, newest first (without the per-run IDs)."""
+        with self._mutex:
+            recs = sorted(self._records.values(), key=lambda r: r.created_at, reverse=True)
+            return [r.to_status() for r in recs]
+
+    def cancel(self, job_id: str) -> JobStatus:
+        """Stop a queued or running job after the runs in flight (finished runs stay)."""
+        with self._mutex:
+            rec = self._record(job_id)
+            if rec.status not in ("queued", "running"):
+                raise JobConflictError(
+                    f"job {job_id} is {rec.status}; only queued or running jobs can be cancelled"
+                )
+            self._cancel.setdefault(job_id, threading.Event()).set()
+            if rec.status == "queued":
+                self._set(rec, "cancelled")
+            return rec.to_status()
+
+    def resume(self, job_id: str) -> JobStatus:
+        """Queue an interrupted, cancelled or failed job (or a done one with failed runs)
+        again; runs already archived are skipped."""
+        with self._mutex:
+            rec = self._record(job_id)
+            if rec.status in ("queued", "running"):
+                raise JobConflictError(f"job {job_id} is already {rec.status}")
+            if rec.done >= rec.total:
+                raise JobConflictError(f"job {job_id} has nothing left to run")
+            self._cancel[job_id] = threading.Event()
+            self._set(rec, "queued", error=None)
+        self._queue.put(job_id)
+        return rec.to_status()
+
+    # -- the worker ----------------------------------------------------------------------------
+
+    def _worker(self) -> None:
+        while not self._stopping.is_set():
+            job_id = self._queue.get()
+            if job_id is None:
+                return
+            with self._mutex:
+                rec = self._records.get(job_id)
+                if rec is None or rec.status != "queued":
+                    continue  # cancelled while queued
+                self._set(rec, "running")
+                cancel = self._cancel.setdefault(job_id, threading.Event())
+            try:
+                self._run(rec, cancel)
+            except Exception as err:  # the job itself broke (unreadable spec, dead cluster)
+                log.exception("job %s failed", job_id)
+                with self._mutex:
+                    self._set(rec, "failed", error=f"{type(err).__name__}: {err}")
+
+    def _prepared(self, job_id: str) -> builtins.list[PreparedRun]:
+        """The job's runs as persisted at submission (scenes re-resolved, IDs as stored)."""
+        from bowlrec.batch import PreparedRun
+        from bowlrec.spec import Scene
+
+        out = []
+        for it in json.loads(self._spec_path(job_id).read_text())["items"]:
+            scene = None if it["scene"] is None else Scene.model_validate(it["scene"])
+            plan = None if scene is None else scene.resolve()
+            out.append(
+                PreparedRun(
+                    it["index"],
+                    it["params"],
+                    scene,
+                    plan,
+                    it["run_id"],
+                    it["ball_ref"],
+                    it["error"],
+                )
+            )
+        return out
+
+    def _run(self, rec: JobRecord, cancel: threading.Event) -> None:
+        from bowlrec.batch import BatchProgress, run_prepared
+
+        last = [0.0]
+
+        def progress(p: BatchProgress) -> None:
+            if time.monotonic() - last[0] < PERSIST_INTERVAL_S:
+                with self._mutex:  # counts in memory only
+                    rec.done, rec.failed, rec.skipped = p.done - p.failed, p.failed, p.archived
+                return
+            last[0] = time.monotonic()
+            with self._mutex:
+                rec.done, rec.failed, rec.skipped = p.done - p.failed, p.failed, p.archived
+                rec.updated_at = _now()
+                self._persist(rec, durable=False)
+
+        result = run_prepared(
+            self._prepared(rec.job_id),
+            self.archive,
+            workers=self.workers,
+            scheduler=self.scheduler,
+            chunk_size=self.chunk_size,
+            progress=progress,
+            cancel=cancel,
+        )
+        counts = result.counts
+        with self._mutex:
+            rec.done = counts["ok"] + counts["archived"]
+            rec.failed, rec.skipped = counts["failed"], counts["archived"]
+            rec.failures = [
+                {"index": r["index"], "run_id": r["run_id"], "error": str(r["error"])}
+                for r in result.rows
+                if r["status"] == "failed"
+            ]
+            if self._stopping.is_set() and result.cancelled:
+                self._set(rec, "interrupted")
+            elif result.cancelled:
+                self._set(rec, "cancelled")
+            else:
+                self._set(rec, "done")
+
+    # -- records (call with the mutex held) ----------------------------------------------------
+
+    def _record(self, job_id: str) -> JobRecord:
+        try:
+            return self._records[job_id]
+        except KeyError:
+            raise JobNotFoundError(f"no job {job_id!r}") from None
+
+    def _set(self, rec: JobRecord, status: JobStatusName, **changes: Any) -> None:
+        rec.status = status
+        for key, value in changes.items():
+            setattr(rec, key, value)
+        rec.updated_at = _now()
+        self._persist(rec)
+
+    def _persist(self, rec: JobRecord, durable: bool = True) -> None:
+        with atomic_path(self.dir / f"{rec.job_id}.json", durable=durable) as tmp:
+            tmp.write_text(json.dumps(asdict(rec), indent=1))
+
+    def _spec_path(self, job_id: str) -> Path:
+        return self.dir / f"{job_id}.spec.json"
+
+
+def _root_as_job(line: str) -> str:
+    """``scene: ...`` (the root of a validation error) reads ``job: ...`` for a job."""
+    return "job" + line.removeprefix("scene") if line.startswith("scene:") else line

@@ -1,0 +1,285 @@
+"""Request and response bodies of the HTTP service (Pydantic models, shown in ``/docs``).
+
+Scene and ball specs are taken as plain JSON objects and validated by the service itself (so an
+invalid spec is answered with one field-named message, see :mod:`bowlrec.service.app`); the
+models here describe everything else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+if TYPE_CHECKING:
+    from bowlrec.archive import BallLibrary
+    from bowlrec.spec import Scene
+
+__all__ = [
+    "BallAddRequest",
+    "BallAddResponse",
+    "BallEntryModel",
+    "BallRemoved",
+    "ErrorResponse",
+    "Health",
+    "JobFailure",
+    "JobStatus",
+    "JobStatusName",
+    "RunList",
+    "RunRow",
+    "SubmitResponse",
+    "ParsedScene",
+    "SpecError",
+    "SummaryModel",
+    "parse_ball_spec",
+    "parse_scene_spec",
+]
+
+JobStatusName = Literal["queued", "running", "done", "failed", "interrupted", "cancelled"]
+
+
+class ErrorResponse(BaseModel):
+    """Every error the service raises itself: 401, 404, 409, 422 (spec and filter errors), 501."""
+
+    detail: str = Field(
+        description="What went wrong; for an invalid spec one 'field: message' "
+        "line per error, e.g. 'ball.mass_kg: Input should be greater than 0'."
+    )
+
+
+class Health(BaseModel):
+    """``GET /health`` (never needs the token)."""
+
+    status: Literal["ok"] = "ok"
+    version: str = Field(description="bowlrec version of the server.")
+    runs: int = Field(description="Runs in the archive's index.")
+    auth: bool = Field(description="True when requests need a bearer token.")
+
+
+class SummaryModel(BaseModel):
+    """The Table III quantities of one delivery (SI units; see ``bowlrec.core.trajectory``)."""
+
+    outcome: str
+    message: str
+    slide_m: float | None
+    hook_m: float | None
+    pocket_deg: float | None
+    time_s: float
+    x_end_m: float
+    y_end_m: float
+    speed_end_mps: float
+    rev_rate_end_rpm: float
+    n_steps: int
+    n_rhs: int
+    n_events: int
+
+
+class SubmitResponse(BaseModel):
+    """``POST /runs``: the run's content ID and summary (201 when added, 200 when it existed)."""
+
+    run_id: str = Field(description="Content ID: the same scene always gives the same ID.")
+    added: bool = Field(description="False when the run was already archived (nothing written).")
+    name: str = Field(description="The scene's name.")
+    ball_ref: str | None = Field(description="Library ball used (name@version), if any.")
+    summary: SummaryModel
+
+
+class RunRow(BaseModel):
+    """One row of the archive index (``bowlrec.archive.index.INDEX_COLUMNS``)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    run_id: str
+    name: str | None = None
+    created_at: str | None = None
+    ball_name: str | None = None
+    ball_version: int | None = None
+    ball_sha: str | None = None
+    pattern: str | None = None
+    outcome: str | None = None
+    slide_m: float | None = None
+    hook_m: float | None = None
+    pocket_deg: float | None = None
+    time_s: float | None = None
+    x_end_m: float | None = None
+    y_end_m: float | None = None
+    speed_end_mps: float | None = None
+    rev_rate_end_rpm: float | None = None
+    speed_mps: float | None = None
+    rev_rate_rpm: float | None = None
+    mass_kg: float | None = None
+    n_samples: int | None = None
+    n_steps: int | None = None
+    n_rhs: int | None = None
+    n_events: int | None = None
+    rtol: float | None = None
+    record: str | None = None
+    solver: str | None = None
+    wall_time_s: float | None = None
+    physics_version: str | None = None
+    bowlrec_version: str | None = None
+    path: str | None = Field(default=None, description="Run file, relative to the archive.")
+
+
+class RunList(BaseModel):
+    """``GET /runs``: the matching index rows."""
+
+    count: int
+    runs: list[RunRow]
+
+
+class BallEntryModel(BaseModel):
+    """One version of a named library ball."""
+
+    name: str
+    version: int
+    ref: str = Field(description="name@version, as runs reference it.")
+    sha: str = Field(description="SHA-256 of the spec's canonical JSON.")
+    added_at: str
+    note: str = ""
+    spec: dict[str, Any] = Field(
+        description="A physical ball (bowlrec.spec.Ball) or a spec sheet (has weight_lb)."
+    )
+
+
+class BallAddRequest(BaseModel):
+    """``POST /balls``: store ``spec`` under ``name`` (a changed spec becomes a new version)."""
+
+    name: str = Field(description="1-100 letters, digits, spaces and . _ + -")
+    spec: dict[str, Any] = Field(
+        description="A physical ball (mass_kg, radius_m, rg_m, ...) or a bowler spec sheet "
+        "(weight_lb, rg_in, differential_in, ...)."
+    )
+    note: str = ""
+
+
+class BallAddResponse(BaseModel):
+    """The stored entry; ``added`` is False when the latest version already had this spec."""
+
+    added: bool
+    entry: BallEntryModel
+
+
+class BallRemoved(BaseModel):
+    """``DELETE /balls/{name}@{version}``."""
+
+    removed: str
+
+
+class JobFailure(BaseModel):
+    """A scene of a job that could not be simulated."""
+
+    index: int
+    run_id: str | None = None
+    error: str
+
+
+class JobStatus(BaseModel):
+    """A job's progress, counted in runs (one per scene of the expanded job).
+
+    ``done``: runs now in the archive (simulated by this job or found archived already;
+    ``skipped`` counts the latter); ``failed``: runs that could not be archived (an invalid
+    combination, a solver error, or an outcome the batch engine treats as a failure: airborne,
+    max_steps, stalled), listed in ``failures``.
+
+    status: queued -> running -> done (every run attempted; failures are listed, the job is
+    still done) | failed (the job itself broke, ``error``) | cancelled (``POST
+    /jobs/{id}/cancel``) | interrupted (the server stopped while the job was queued or running;
+    ``POST /jobs/{id}/resume`` continues it, skipping runs already archived).
+    """
+
+    job_id: str
+    name: str
+    status: JobStatusName
+    total: int
+    done: int
+    failed: int
+    skipped: int
+    created_at: str
+    updated_at: str
+    error: str | None = None
+    resumable: bool = Field(description="True when POST /jobs/{id}/resume would continue it.")
+    run_ids: list[str | None] | None = Field(
+        default=None,
+        description="Content ID of every run, in job order (null for a run invalid before "
+        "simulation; GET /jobs/{id} only).",
+    )
+    failures: list[JobFailure] = Field(default_factory=list)
+
+
+# -- spec validation ------------------------------------------------------------------------------
+
+
+class SpecError(ValueError):
+    """An invalid scene or ball spec; the message names the offending fields (HTTP 422)."""
+
+
+@dataclass(frozen=True)
+class ParsedScene:
+    """A validated scene and the library ball it referenced (``name@version``), if any."""
+
+    scene: Scene
+    ball_ref: str | None
+
+
+def _library_ball(ref: str, balls: BallLibrary, bowler: bool) -> tuple[dict[str, Any], str]:
+    """The spec of library ball ``ref`` as a mapping, checked against the scene kind."""
+    from bowlrec.archive import BallNotFoundError
+
+    try:
+        entry = balls.get(ref)
+    except (BallNotFoundError, ValueError) as err:
+        raise SpecError(f"ball: {err}") from None
+    is_sheet = "weight_lb" in entry.ball.model_dump()
+    if is_sheet != bowler:
+        kind = "a bowler spec sheet" if is_sheet else "a physical ball"
+        scene = "a bowler-language" if bowler else "a physical"
+        raise SpecError(
+            f"ball: library ball {entry.ref} is {kind}; it cannot be used in {scene} scene"
+        )
+    return entry.ball.model_dump(mode="json"), entry.ref
+
+
+def parse_scene_spec(data: Any, balls: BallLibrary | None = None) -> ParsedScene:
+    """Validate a physical scene or, with ``"format": "bowler"``, a bowler-language scene.
+
+    A string ``ball`` is a library reference (``name`` or ``name@version``) resolved through
+    ``balls``. Raises :class:`SpecError` with field-named lines
+    (:func:`bowlrec.spec.format_validation_error`).
+    """
+    from bowlrec.spec import Scene, format_validation_error
+
+    if not isinstance(data, dict):
+        raise SpecError(f"scene: expected a JSON object, got {type(data).__name__}")
+    bowler = data.get("format") == "bowler"
+    ball_ref = None
+    if isinstance(data.get("ball"), str):
+        if balls is None:
+            raise SpecError("ball: library references are not available here")
+        spec, ball_ref = _library_ball(data["ball"], balls, bowler)
+        data = {**data, "ball": spec}
+    try:
+        if bowler:
+            from bowlrec.bowling.scene import BowlerScene
+
+            return ParsedScene(BowlerScene.model_validate(data).to_scene(), ball_ref)
+        return ParsedScene(Scene.model_validate(data), ball_ref)
+    except ValidationError as err:
+        raise SpecError(format_validation_error(err)) from None
+    except ValueError as err:  # a bowler scene that cannot be placed (illegal ball, ...)
+        raise SpecError(f"scene: {err}") from None
+
+
+def parse_ball_spec(data: Any) -> Any:
+    """A physical ball or a bowler spec sheet (``weight_lb``); :class:`SpecError` if invalid."""
+    from bowlrec.archive.balls import parse_ball
+    from bowlrec.spec import format_validation_error
+
+    if not isinstance(data, dict):
+        raise SpecError(f"spec: expected a JSON object, got {type(data).__name__}")
+    try:
+        return parse_ball(data)
+    except ValidationError as err:
+        lines = format_validation_error(err).splitlines()
+        raise SpecError("\n".join(f"spec.{line}" for line in lines)) from None

@@ -1,0 +1,495 @@
+"""The HTTP service against a real uvicorn server (``bowlrec serve`` in a subprocess on
+127.0.0.1), talked to with httpx: the whole flow, concurrent clients, kill -9 mid-job and
+restart, 422/404 paths and token auth."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+httpx = pytest.importorskip("httpx")
+pytest.importorskip("fastapi")
+pytest.importorskip("uvicorn")
+
+from bowlrec.archive import Archive  # noqa: E402
+from bowlrec.archive.index import INDEX_COLUMNS  # noqa: E402
+
+HERE = Path(__file__).parent
+CHILD = HERE / "service_child.py"
+
+
+def summary_scene(i: int, name: str = "svc") -> dict[str, Any]:
+    """A distinct summary-only scene per ``i`` (closed-form solver: ~1 ms to simulate)."""
+    return {
+        "name": name,
+        "delivery": {"speed_mps": round(6.0 + 0.001 * i, 6)},
+        "options": {"record": "summary"},
+    }
+
+
+def sampled_scene() -> dict[str, Any]:
+    """A spinning delivery recorded every 10 ms (the integrator), replayable as MCAP/RRD."""
+    return {
+        "name": "sampled",
+        "delivery": {"speed_mps": 8.0, "omega_radps": [-16.62, 23.74, 7.765]},
+        "options": {"record": "rate", "record_dt_s": 0.01},
+    }
+
+
+@pytest.fixture(scope="session", autouse=True)
+def _warm_kernel_cache() -> None:
+    """Compile the kernels once here so the server processes load them from numba's cache."""
+    import bowlrec
+    from bowlrec.spec import Scene
+
+    bowlrec.simulate(Scene.model_validate(summary_scene(0)))
+    bowlrec.simulate(Scene.model_validate(sampled_scene()))
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@dataclass
+class Server:
+    """A ``bowlrec serve`` subprocess and an httpx client pointed at it."""
+
+    proc: subprocess.Popen[bytes]
+    url: str
+    archive: Path
+    headers: dict[str, str]
+
+    def client(self, **kw: Any) -> httpx.Client:
+        return httpx.Client(base_url=self.url, headers=self.headers, timeout=60.0, **kw)
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            os.kill(self.proc.pid, signal.SIGKILL)
+        self.proc.wait(10)
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)  # uvicorn's graceful shutdown
+            try:
+                self.proc.wait(20)
+            except subprocess.TimeoutExpired:
+                self.kill()
+
+
+def start_server(archive: Path, token: str | None = None, *extra: str) -> Server:
+    env = dict(os.environ)
+    env.pop("BOWLREC_TOKEN", None)
+    if token is not None:
+        env["BOWLREC_TOKEN"] = token
+    for _ in range(3):  # a free port can be taken between the probe and the bind: retry
+        port = _free_port()
+        cmd = [sys.executable, str(CHILD), "--archive", str(archive), "--port", str(port)]
+        proc = subprocess.Popen(
+            [*cmd, "--log-level", "warning", *extra],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        url = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
+                    headers = {} if token is None else {"Authorization": f"Bearer {token}"}
+                    return Server(proc, url, archive, headers)
+            except httpx.TransportError:
+                time.sleep(0.05)
+        if proc.poll() is None:
+            proc.kill()
+        err = proc.communicate(timeout=10)[1].decode(errors="replace")
+        if "address already in use" not in err.lower():
+            raise RuntimeError(f"server did not start:\n{err}")
+    raise RuntimeError("no free port")
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
+    srv = start_server(tmp_path_factory.mktemp("svc") / "archive")
+    yield srv
+    srv.stop()
+
+
+@pytest.fixture(scope="module")
+def client(server: Server) -> Iterator[httpx.Client]:
+    with server.client() as c:
+        yield c
+
+
+# -- the whole flow ------------------------------------------------------------------------------
+
+
+def test_submit_scene_then_summary_spec_and_files(
+    server: Server, client: httpx.Client, tmp_path: Path
+) -> None:
+    from bowlrec.sinks.hdf5_run import read_run_file
+    from bowlrec.sinks.mcap_file import read_mcap_positions
+
+    r = client.post("/runs", json=sampled_scene())
+    assert r.status_code == 201, r.text
+    body = r.json()
+    rid, summary = body["run_id"], body["summary"]
+    assert body["added"] is True and summary["outcome"] == "pins"
+
+    again = client.post("/runs", json=sampled_scene())
+    assert again.status_code == 200
+    assert again.json()["run_id"] == rid and again.json()["added"] is False
+
+    row = client.get(f"/runs/{rid[:8]}").json()  # a unique prefix works
+    assert row["run_id"] == rid and row["hook_m"] == pytest.approx(summary["hook_m"])
+    assert set(row) >= set(INDEX_COLUMNS)
+
+    spec = client.get(f"/runs/{rid}/spec").json()
+    assert spec["delivery"]["omega_radps"] == [-16.62, 23.74, 7.765]
+    assert client.post("/runs", json=spec).json()["run_id"] == rid  # the spec round-trips
+
+    h5 = client.get(f"/runs/{rid}/files/hdf5")
+    assert h5.status_code == 200 and h5.headers["content-type"] == "application/x-hdf5"
+    (tmp_path / "run.h5").write_bytes(h5.content)
+    stored = read_run_file(tmp_path / "run.h5")
+    assert stored.run_id == rid and stored.trajectory.summary.hook_m == summary["hook_m"]
+
+    mcap = client.get(f"/runs/{rid}/files/mcap")
+    assert mcap.status_code == 200, mcap.text
+    (tmp_path / "run.mcap").write_bytes(mcap.content)
+    t, pos, _ = read_mcap_positions(tmp_path / "run.mcap")
+    assert np.array_equal(t, stored.trajectory.t_s)
+    assert np.array_equal(pos, stored.trajectory.position_m)
+    assert client.get(f"/runs/{rid}/files/mcap").content == mcap.content  # cached
+
+    rrd = client.get(f"/runs/{rid}/files/rrd")
+    assert rrd.status_code == 200 and rrd.content[:4] == b"RRF2"
+    cache = list((server.archive / "cache").rglob("*"))
+    assert not [p for p in cache if p.name.endswith(".part")]  # only complete files
+
+
+def test_bowler_scene_and_library_ball_reference(client: httpx.Client) -> None:
+    bowler = json.loads((HERE.parent / "examples" / "bowler" / "house-shot-right.json").read_text())
+    bowler["options"] = {"record": "summary"}
+    r = client.post("/runs", json=bowler)
+    assert r.status_code == 201, r.text
+
+    ball = {"mass_kg": 6.0, "radius_m": 0.1085, "rg_m": [0.07, 0.07, 0.07]}
+    assert client.post("/balls", json={"name": "plastic", "spec": ball}).status_code == 201
+    r = client.post("/runs", json={**summary_scene(900), "ball": "plastic"})
+    assert r.status_code == 201 and r.json()["ball_ref"] == "plastic@1"
+    rows = client.get("/runs", params={"ball": "plastic"}).json()["runs"]
+    assert [row["run_id"] for row in rows] == [r.json()["run_id"]]
+
+
+def test_list_and_filter_runs(client: httpx.Client) -> None:
+    ids = [client.post("/runs", json=summary_scene(i, "filter")).json()["run_id"] for i in range(6)]
+    listed = client.get("/runs", params={"name": "filter"}).json()
+    assert listed["count"] == 6 and {r["run_id"] for r in listed["runs"]} == set(ids)
+
+    fast = client.get(
+        "/runs",
+        params=[
+            ("name", "filter"),
+            ("where", "speed_mps>=6.002"),
+            ("where", "speed_mps<6.005"),
+            ("order_by", "-speed_mps"),
+        ],
+    ).json()["runs"]
+    assert [round(r["speed_mps"], 3) for r in fast] == [6.004, 6.003, 6.002]
+    one = client.get("/runs", params={"name": "filter", "limit": 1, "outcome": "pins"}).json()
+    assert one["count"] == 1
+    assert client.get("/runs", params={"pattern": "typical", "name": "filter"}).json()["count"] == 6
+    assert client.get("/runs", params={"pattern": "zones", "name": "filter"}).json()["count"] == 0
+
+
+def test_ball_library_crud(client: httpx.Client) -> None:
+    spec = {"mass_kg": 7.0, "radius_m": 0.1085, "rg_m": [0.068, 0.07, 0.07]}
+    r = client.post("/balls", json={"name": "crud ball", "spec": spec, "note": "first"})
+    assert r.status_code == 201 and r.json()["entry"]["ref"] == "crud ball@1"
+    same = client.post("/balls", json={"name": "crud ball", "spec": spec})
+    assert same.status_code == 200 and same.json()["added"] is False
+    v2 = client.post("/balls", json={"name": "crud ball", "spec": {**spec, "mass_kg": 7.1}})
+    assert v2.json()["entry"]["version"] == 2
+
+    assert client.get("/balls/crud ball").json()["version"] == 2
+    assert client.get("/balls/crud ball@1").json()["spec"]["mass_kg"] == 7.0
+    names = [b["ref"] for b in client.get("/balls", params={"all_versions": True}).json()]
+    assert {"crud ball@1", "crud ball@2"} <= set(names)
+    export = client.get("/balls/export").json()
+    assert export["format"] == "bowlrec-ball-library"
+    assert client.post("/balls/import", json=export).json()[0]["added"] is False
+
+    assert client.delete("/balls/crud ball@1").json() == {"removed": "crud ball@1"}
+    assert client.get("/balls/crud ball@1").status_code == 404
+    assert client.delete("/balls/crud ball@1").status_code == 404
+    assert client.delete("/balls/crud ball").status_code == 422  # the version is required
+
+
+def test_job_submit_and_poll_to_completion(client: httpx.Client) -> None:
+    scenes = [summary_scene(i, "job") for i in range(2000, 2030)]
+    scenes.append(summary_scene(2000, "job"))  # a duplicate: simulated and archived once
+    scenes.append({"ball": {"radius_m": 0.0}})  # invalid: a failure row, not a failed job
+    r = client.post("/jobs", json={"name": "thirty", "scenes": scenes})
+    assert r.status_code == 202, r.text
+    job_id = r.json()["job_id"]
+    status = _wait_job(client, job_id, {"done"})
+    assert (status["total"], status["done"], status["failed"]) == (32, 31, 1)
+    assert status["resumable"] is True  # resuming would retry the failed run
+    [failure] = status["failures"]
+    assert failure["index"] == 31 and "ball.radius_m" in failure["error"]
+    listed = {row["run_id"] for row in client.get("/runs", params={"name": "job"}).json()["runs"]}
+    assert set(status["run_ids"]) - {None} == listed and len(listed) == 30
+    assert job_id in [j["job_id"] for j in client.get("/jobs").json()]
+    assert client.post(f"/jobs/{job_id}/cancel").status_code == 409
+
+    again = client.post("/jobs", json={"name": "again", "scenes": scenes[:30]}).json()
+    again = _wait_job(client, again["job_id"], {"done"})
+    assert (again["done"], again["skipped"]) == (30, 30)  # all archived: nothing simulated
+
+
+def test_sweep_job_from_a_bowlrec_job_spec(client: httpx.Client) -> None:
+    job = {
+        "format": "bowlrec-job",
+        "name": "grid",
+        "base": {"name": "grid-base"},
+        "sweep": {
+            "kind": "grid",
+            "axes": {
+                "delivery.speed_mps": {"start": 7.0, "stop": 8.0, "num": 3},
+                "delivery.omega_radps[1]": [20.0, 25.0],
+            },
+        },
+        "record": "summary",
+    }
+    r = client.post("/jobs", json=job)
+    assert r.status_code == 202, r.text
+    status = _wait_job(client, r.json()["job_id"], {"done"})
+    assert (status["total"], status["done"], status["failed"]) == (6, 6, 0)
+    rows = client.get("/runs", params={"name": "grid-base", "order_by": "speed_mps"}).json()
+    assert rows["count"] == 6
+    assert [round(r["speed_mps"], 3) for r in rows["runs"]][::2] == [7.0, 7.5, 8.0]
+    assert {r["record"] for r in rows["runs"]} == {"summary"}
+
+
+def _wait_job(client: httpx.Client, job_id: str, until: set[str], timeout: float = 60.0) -> Any:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        status = client.get(f"/jobs/{job_id}").json()
+        if status["status"] in until:
+            return status
+        time.sleep(0.05)
+    raise AssertionError(f"job {job_id} still {status['status']}: {status}")
+
+
+# -- 422 and 404 ---------------------------------------------------------------------------------
+
+
+def test_invalid_specs_get_422_with_field_named_messages(client: httpx.Client) -> None:
+    r = client.post("/runs", json={"ball": {"mass_kg": -1.0}, "delivery": {"speed_mps": "fast"}})
+    assert r.status_code == 422
+    detail = r.json()["detail"]
+    assert "ball.mass_kg: Input should be greater than 0" in detail
+    assert "delivery.speed_mps:" in detail
+
+    bowler = client.post("/runs", json={"format": "bowler", "delivery": {"speed_mph": -3}})
+    assert bowler.status_code == 422 and "delivery.speed_mph" in bowler.json()["detail"]
+    unknown_ball = client.post("/runs", json={"ball": "no-such-ball"})
+    assert unknown_ball.status_code == 422 and "no-such-ball" in unknown_ball.json()["detail"]
+
+    bad_path = {"sweep": {"kind": "grid", "axes": {"delivery.nope": [1.0]}}}
+    job = client.post("/jobs", json=bad_path)
+    assert job.status_code == 422 and "delivery.nope" in job.json()["detail"]
+    bad_record = client.post("/jobs", json={"format": "bowlrec-job", "record": "everything"})
+    assert bad_record.status_code == 422 and bad_record.json()["detail"].startswith("record:")
+    server_file = client.post("/jobs", json={"scenes": ["/etc/passwd"]})
+    assert server_file.status_code == 422 and "inline" in server_file.json()["detail"]
+    unknown = client.post("/jobs", json={"scenes": [{}], "workers": 3})
+    assert unknown.status_code == 422 and unknown.json()["detail"].startswith("workers:")
+
+    bad_ball = client.post("/balls", json={"name": "x", "spec": {"mass_kg": 0}})
+    assert bad_ball.status_code == 422 and "spec.mass_kg" in bad_ball.json()["detail"]
+    assert client.post("/balls", json={"name": "@bad", "spec": {}}).status_code == 422
+
+    bad_filter = client.get("/runs", params={"where": "nope>1"})
+    assert bad_filter.status_code == 422 and "unknown column 'nope'" in bad_filter.json()["detail"]
+    assert client.get("/runs", params={"order_by": "nope"}).status_code == 422
+    # FastAPI's own request validation keeps its list shape (documented in the app module)
+    shape = client.post("/runs", content=b"not json", headers={"content-type": "application/json"})
+    assert shape.status_code == 422 and isinstance(shape.json()["detail"], list)
+
+
+def test_unknown_ids_get_404_and_summary_only_replays_409(client: httpx.Client) -> None:
+    for path in (
+        "/runs/0123456789abcdef0123",
+        "/runs/zz",
+        "/runs/abcdef/spec",
+        "/runs/abcdef/files/hdf5",
+        "/balls/nothing",
+        "/jobs/nope",
+    ):
+        r = client.get(path)
+        assert r.status_code == 404, path
+        assert isinstance(r.json()["detail"], str)
+    assert client.post("/jobs/nope/resume").status_code == 404
+    rid = client.post("/runs", json=summary_scene(77)).json()["run_id"]
+    for kind in ("mcap", "rrd"):
+        r = client.get(f"/runs/{rid}/files/{kind}")
+        assert r.status_code == 409 and "record = 'summary'" in r.json()["detail"]
+
+
+def test_health_and_openapi_docs(client: httpx.Client) -> None:
+    health = client.get("/health").json()
+    assert health["status"] == "ok" and health["auth"] is False
+    assert client.get("/docs").status_code == 200
+    paths = client.get("/openapi.json").json()["paths"]
+    assert {"/runs", "/runs/{run_id}/files/{kind}", "/balls/{ref}", "/jobs/{job_id}"} <= set(paths)
+
+
+# -- concurrency ---------------------------------------------------------------------------------
+
+
+def test_concurrent_clients_every_run_accounted_for(tmp_path: Path) -> None:
+    """16 clients x 20 submissions (60 distinct scenes, each submitted ~5 times, concurrently),
+    each followed by a read of the run; then the archive holds exactly the distinct runs."""
+    n_clients, per_client, distinct = 16, 20, 60
+    srv = start_server(tmp_path / "archive")
+    seen: list[tuple[int, str, bool]] = []
+    lock = threading.Lock()
+
+    def work(c: int) -> None:
+        with srv.client() as client:
+            for k in range(per_client):
+                i = (c * 7 + k * 3) % distinct
+                r = client.post("/runs", json=summary_scene(i, "conc"))
+                assert r.status_code in (200, 201), r.text
+                rid = r.json()["run_id"]
+                assert client.get(f"/runs/{rid}").json()["run_id"] == rid
+                with lock:
+                    seen.append((i, rid, r.json()["added"]))
+                if k % 5 == 0:
+                    assert client.get("/runs", params={"name": "conc"}).status_code == 200
+
+    try:
+        with ThreadPoolExecutor(n_clients) as pool:
+            list(pool.map(work, range(n_clients)))
+        with srv.client() as client:
+            listed = {r["run_id"] for r in client.get("/runs").json()["runs"]}
+    finally:
+        srv.stop()
+    assert len(seen) == n_clients * per_client
+    ids_by_scene: dict[int, set[str]] = {}
+    for i, rid, _ in seen:
+        ids_by_scene.setdefault(i, set()).add(rid)
+    assert all(len(ids) == 1 for ids in ids_by_scene.values())  # one content ID per scene
+    distinct_ids = {rid for _, rid, _ in seen}
+    assert listed == distinct_ids and len(distinct_ids) == len(ids_by_scene)
+    assert sum(added for _, _, added in seen) == len(distinct_ids)  # each added exactly once
+    archive = Archive(tmp_path / "archive", create=False)
+    assert archive.repair() == {"temporaries_removed": 0, "runs_indexed": 0, "rows_dropped": 0}
+    assert {r["run_id"] for r in archive.list_runs()} == distinct_ids
+
+
+# -- kill -9 mid-job and restart -----------------------------------------------------------------
+
+
+def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Path) -> None:
+    archive_dir = tmp_path / "archive"
+    srv = start_server(archive_dir)
+    scenes = [summary_scene(i, "killed") for i in range(5000, 5080)]
+    try:
+        with srv.client() as client:
+            job_id = client.post("/jobs", json={"scenes": scenes}).json()["job_id"]
+            deadline = time.monotonic() + 30
+            while (status := client.get(f"/jobs/{job_id}").json())["done"] < 10:
+                assert time.monotonic() < deadline, status
+                time.sleep(0.02)
+            before = {r["run_id"] for r in client.get("/runs").json()["runs"]}
+    finally:
+        srv.kill()
+    assert status["status"] == "running" and len(before) >= 10
+
+    srv = start_server(archive_dir)
+    try:
+        with srv.client() as client:
+            after = client.get(f"/jobs/{job_id}").json()
+            listed = {r["run_id"] for r in client.get("/runs").json()["runs"]}
+            assert before <= listed  # no finished run lost
+            assert after["status"] == "interrupted" and after["resumable"] is True
+            archived = [rid for rid in after["run_ids"] if rid in listed]
+            assert after["done"] == len(archived) >= len(before)
+            assert after["done"] < after["total"] == 80
+
+            resumed = client.post(f"/jobs/{job_id}/resume")
+            assert resumed.status_code == 202 and resumed.json()["status"] == "queued"
+            final = _wait_job(client, job_id, {"done"})
+            assert (final["done"], final["failed"]) == (80, 0)
+            assert final["skipped"] == after["done"]  # archived runs were not simulated again
+            listed = {r["run_id"] for r in client.get("/runs").json()["runs"]}
+            assert listed == set(final["run_ids"])
+    finally:
+        srv.stop()
+    archive = Archive(archive_dir, create=False)
+    repaired = archive.repair()
+    assert repaired["rows_dropped"] == 0 and len(archive) == 80
+
+
+def test_second_server_on_the_same_archive_is_refused(server: Server) -> None:
+    out = subprocess.run(
+        [sys.executable, str(CHILD), "--archive", str(server.archive), "--port", "1"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 2 and "another bowlrec server" in out.stderr
+
+
+# -- auth and binding ----------------------------------------------------------------------------
+
+
+def test_token_is_required_when_set(tmp_path: Path) -> None:
+    srv = start_server(tmp_path / "archive", token="s3cret-token")
+    try:
+        with httpx.Client(base_url=srv.url, timeout=30) as anon:
+            assert anon.get("/health").json()["auth"] is True  # open
+            assert anon.get("/docs").status_code == 200  # open
+            r = anon.get("/runs")
+            assert r.status_code == 401 and r.headers["www-authenticate"] == "Bearer"
+            assert anon.post("/runs", json=summary_scene(1)).status_code == 401
+            wrong = {"Authorization": "Bearer wrong"}
+            assert anon.get("/balls", headers=wrong).status_code == 401
+        with srv.client() as client:
+            assert client.get("/runs").status_code == 200
+            assert client.post("/runs", json=summary_scene(1)).status_code == 201
+    finally:
+        srv.stop()
+
+
+def test_non_loopback_host_needs_a_token_or_insecure(tmp_path: Path) -> None:
+    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
+    cmd = [sys.executable, str(CHILD), "--archive", str(tmp_path / "a"), "--host", "0.0.0.0"]
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
+    assert out.returncode == 2 and "refusing to serve 0.0.0.0 without a token" in out.stderr
+    assert not (tmp_path / "a").exists()  # refused before touching anything
+
+
+def test_loopback_detection() -> None:
+    from bowlrec.cli.serve import is_loopback
+
+    assert all(map(is_loopback, ["127.0.0.1", "localhost", "::1", "[::1]", "127.0.0.2"]))
+    assert not any(map(is_loopback, ["0.0.0.0", "::", "192.168.1.4", "example.org"]))
