@@ -219,3 +219,18 @@ def test_replay_and_simulate_write_every_format(tmp_path: Path) -> None:
         "run_id"
     ]
     assert "options.record = 'summary'" in _fails(2, "replay", rid2, "-a", arch, "--rrd", "x.rrd")
+
+
+def test_config_file_can_name_the_dask_scheduler(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from bowlrec.archive.location import config_value
+
+    config = tmp_path / "config.toml"
+    config.write_text('scheduler = "tcp://10.0.0.5:8786"\n')
+    monkeypatch.setenv("BOWLREC_CONFIG", str(config))
+    assert config_value("scheduler") == "tcp://10.0.0.5:8786"
+    assert config_value("missing") is None
+    config.write_text("scheduler = [unclosed\n")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        config_value("scheduler")

@@ -4,6 +4,10 @@ Order: the ``BOWLREC_ARCHIVE`` environment variable; ``archive = "..."`` in the 
 (``$BOWLREC_CONFIG``, else ``$XDG_CONFIG_HOME/bowlrec/config.toml``, else
 ``~/.config/bowlrec/config.toml``); the embedded default ``$XDG_DATA_HOME/bowlrec/archive``
 (else ``~/.local/share/bowlrec/archive``).
+
+The same config file may name a Dask scheduler (``scheduler = "tcp://HOST:PORT"``) that
+``bowlrec batch`` and ``bowlrec serve`` use when neither ``--scheduler`` nor
+``$BOWLREC_SCHEDULER`` is given.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import os
 import tomllib
 from pathlib import Path
 
-__all__ = ["ENV_ARCHIVE", "config_path", "default_archive_path"]
+__all__ = ["ENV_ARCHIVE", "config_path", "config_value", "default_archive_path"]
 
 ENV_ARCHIVE = "BOWLREC_ARCHIVE"
 ENV_CONFIG = "BOWLREC_CONFIG"
@@ -26,17 +30,25 @@ def config_path() -> Path:
     return Path(base) / "bowlrec" / "config.toml"
 
 
+def config_value(key: str) -> str | None:
+    """A top-level string entry of the config file (None when the file or key is missing)."""
+    cfg = config_path()
+    if not cfg.is_file():
+        return None
+    try:
+        data = tomllib.loads(cfg.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{cfg}: not valid TOML ({err})") from None
+    value = data.get(key)
+    return None if value is None else str(value)
+
+
 def default_archive_path() -> tuple[Path, str]:
     """(path, where it came from: "environment", "config <file>" or "default")."""
     if os.environ.get(ENV_ARCHIVE):
         return Path(os.environ[ENV_ARCHIVE]).expanduser(), f"${ENV_ARCHIVE}"
-    cfg = config_path()
-    if cfg.is_file():
-        try:
-            data = tomllib.loads(cfg.read_text())
-        except tomllib.TOMLDecodeError as err:
-            raise ValueError(f"{cfg}: not valid TOML ({err})") from None
-        if "archive" in data:
-            return Path(str(data["archive"])).expanduser(), f"config {cfg}"
+    configured = config_value("archive")
+    if configured is not None:
+        return Path(configured).expanduser(), f"config {config_path()}"
     base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
     return Path(base) / "bowlrec" / "archive", "default"

@@ -49,8 +49,9 @@ def batch(
         str | None,
         typer.Option(
             "--scheduler",
+            envvar="BOWLREC_SCHEDULER",
             help="Run on a dask.distributed cluster, e.g. tcp://127.0.0.1:8786 (needs "
-            "'bowlrec[dask]').",
+            "'bowlrec[dask]'); default: $BOWLREC_SCHEDULER or 'scheduler' in the config file.",
         ),
     ] = None,
     out: Annotated[
@@ -87,6 +88,10 @@ def batch(
     except JobError as err:
         fail(f"{job}: {err}")
     prefix = out if out is not None else Path(f"{job.stem}-summary")
+    if scheduler is None:
+        from bowlrec.archive.location import config_value
+
+        scheduler = config_value("scheduler")
     cancel = threading.Event()
     previous = _sigint_sets(cancel)
     show = interactive(quiet)

@@ -55,7 +55,7 @@ def serve(
         typer.Option(
             envvar="BOWLREC_SCHEDULER",
             help="Run jobs on this dask.distributed scheduler (tcp://HOST:PORT; needs "
-            "bowlrec\\[dask]).",
+            "bowlrec\\[dask]); default: 'scheduler' in the config file, if any.",
         ),
     ] = None,
     log_level: Annotated[
@@ -80,6 +80,10 @@ def serve(
 
     store = open_archive(archive)
     try:
+        if scheduler is None:
+            from bowlrec.archive.location import config_value
+
+            scheduler = config_value("scheduler")
         application = create_app(store.root, token, job_workers=job_workers, scheduler=scheduler)
     except JobsLockedError as err:
         fail(str(err))
