@@ -39,7 +39,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .vec import cross, quat_matrix, rotate, solve3, world_inertia
+from .vec import NO_NRT, cross, quat_matrix, rotate, solve3, world_inertia
 
 N_STATE = 11
 PHASE_SLIDE = 0
@@ -90,7 +90,7 @@ def pack_params(
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def ball_frame(y, par):  # type: ignore[no-untyped-def]
     """World inertia per unit mass (6-tuple) and r_Delta in the lane frame at state y."""
     if par[P_SCALAR] != 0.0 and par[P_OFFSET] == 0.0:
@@ -109,7 +109,7 @@ def ball_frame(y, par):  # type: ignore[no-untyped-def]
     return iw, rd
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", forceinline=True)
 def _dev_torque(iw, wx, wy, wz, scalar):  # type: ignore[no-untyped-def]
     """tau_dev = (I_dev w) x w = (I w) x w (the isotropic part is parallel to w)."""
     if scalar:
@@ -121,24 +121,39 @@ def _dev_torque(iw, wx, wy, wz, scalar):  # type: ignore[no-untyped-def]
     return cross(lx, ly, lz, wx, wy, wz)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def slide_accel(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """Sliding with friction along the unit direction (ux, uy) of the slip.
 
     Returns (ax, ay, alpha_x, alpha_y, alpha_z, n): the acceleration of the geometric center
     (m/s^2), the angular acceleration (rad/s^2) and the normal force per unit mass (m/s^2).
     """
+    return _slide_accel_frame(y, par, _slide_frame(y, par), mu, ux, uy)
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _slide_frame(y, par):  # type: ignore[no-untyped-def]
+    """The parts of ``slide_accel`` that do not depend on the friction direction: world inertia,
+    r_Delta in the lane frame and tau_dev (computed once when several directions are tried)."""
+    iw, rd = ball_frame(y, par)
+    td = _dev_torque(iw, y[8], y[9], y[10], par[P_SCALAR] != 0.0)
+    return iw, rd, td
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _slide_accel_frame(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """``slide_accel`` given ``_slide_frame(y, par)``."""
     R = par[P_R]
     g = par[P_G]
     wx = y[8]
     wy = y[9]
     wz = y[10]
-    iw, rd = ball_frame(y, par)
+    iw, rd, td = frame
     ixx, iyy, izz, ixy, ixz, iyz = iw
     rdx, rdy, rdz = rd
     mx = mu * ux
     my = mu * uy
-    tdx, tdy, tdz = _dev_torque(iw, wx, wy, wz, par[P_SCALAR] != 0.0)
+    tdx, tdy, tdz = td
     # c = rho x mu_vec with rho = r_Delta + R_con = (rdx, rdy, rdz - R), mu_vec = (mx, my, 1)
     cx, cy, cz = cross(rdx, rdy, rdz - R, mx, my, 1.0)
     if par[P_OFFSET] == 0.0:
@@ -171,7 +186,7 @@ def slide_accel(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return accx, accy, ax_, ay_, az_, n
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def roll_accel(y, par):  # type: ignore[no-untyped-def]
     """Rolling without slipping.
 
@@ -220,22 +235,28 @@ def roll_accel(y, par):  # type: ignore[no-untyped-def]
     return R * ay_, -R * ax_, ax_, ay_, az_, fx, fy, n
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def slip(y, par):  # type: ignore[no-untyped-def]
     """Slip velocity s = R_con x w - v_cb (m/s): the floor's velocity relative to the contact."""
     R = par[P_R]
     return R * y[9] - y[2], -R * y[8] - y[3]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def slip_rate(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """ds/dt (m/s^2) while sliding with friction along (ux, uy)."""
-    ax, ay, alx, aly, _alz, _n = slide_accel(y, par, mu, ux, uy)
+    return _slip_rate_frame(y, par, _slide_frame(y, par), mu, ux, uy)
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _slip_rate_frame(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """``slip_rate`` given ``_slide_frame(y, par)``."""
+    ax, ay, alx, aly, _alz, _n = _slide_accel_frame(y, par, frame, mu, ux, uy)
     R = par[P_R]
     return R * aly - ax, -R * alx - ay
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """Unit friction direction u with ds/dt(u) parallel to u (Newton on the angle from (ux, uy)).
 
@@ -247,12 +268,13 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     stiff and for which every direction is nearly slaved) the root is ill-defined and the start
     direction is returned unchanged, as it is if Newton wanders more than 1 rad away.
     """
+    frame = _slide_frame(y, par)
     phi0 = math.atan2(uy, ux)
     phi = phi0
     for _ in range(8):
         cx = math.cos(phi)
         cy = math.sin(phi)
-        sx, sy = slip_rate(y, par, mu, cx, cy)
+        sx, sy = _slip_rate_frame(y, par, frame, mu, cx, cy)
         h0 = cx * sy - cy * sx
         scale = abs(sx) + abs(sy) + 1e-300
         if abs(h0) <= 1e-13 * scale:
@@ -260,7 +282,7 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
         d = 1e-7
         c2 = math.cos(phi + d)
         s2 = math.sin(phi + d)
-        tx, ty = slip_rate(y, par, mu, c2, s2)
+        tx, ty = _slip_rate_frame(y, par, frame, mu, c2, s2)
         h1 = c2 * ty - s2 * tx
         dh = (h1 - h0) / d
         if abs(dh) < 1e-3 * scale:
@@ -278,7 +300,7 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return math.cos(phi), math.sin(phi)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
     """Unit direction of the friction force while sliding, given the slip (sx, sy), |s| = s.
 
@@ -316,7 +338,7 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: i
     return ux, uy
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy):  # type: ignore[no-untyped-def]
     """Write dy/dt into ``dy``; return (n, margin, ux, uy).
 

@@ -56,7 +56,7 @@ from .dynamics import (
     slaved_direction,
     slip,
 )
-from .vec import cross, solve3
+from .vec import NO_NRT, cross, solve3
 
 # Outcome / status codes.
 STATUS_RUNNING = 0
@@ -130,9 +130,10 @@ D1, D3, D4, D5, D6, D7 = (
 
 N_SUB = 4  # dense samples per step on which event functions are scanned
 MAX_EVENTS = 100_000
+H_MAX = 0.1  # largest step (s)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient):  # type: ignore[no-untyped-def]
     """Stages 2..7 of one DP5 step from (t, y) with K[0] = f(y). Returns the minimum normal force
     and friction margin over stages 2..7 and the normal force / margin / direction at the end."""
@@ -176,30 +177,43 @@ def _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient):  # type: 
     return nmin, mmin, r[0], r[1], r[2], r[3]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
     """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component.
 
     The quaternion's error counts with the weight ``q_weight`` (0 drops it): see
-    ``solver.orientation_weight``."""
+    ``solver.orientation_weight``. (Three loops in component order, so the sum is the same.)"""
     acc = 0.0
-    cnt = 0
-    for i in range(N_STATE):
-        w = 1.0
-        if 4 <= i <= 7:
-            if q_weight == 0.0:
-                continue
-            w = q_weight
+    for i in range(4):
         e = h * (
             E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
         )
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
-        acc += (w * e / sc) ** 2
-        cnt += 1
+        acc += (e / sc) ** 2
+    cnt = 7
+    if q_weight != 0.0:
+        cnt = 11
+        for i in range(4, 8):
+            e = h * (
+                E1 * K[0, i]
+                + E3 * K[2, i]
+                + E4 * K[3, i]
+                + E5 * K[4, i]
+                + E6 * K[5, i]
+                + E7 * K[6, i]
+            )
+            sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
+            acc += (q_weight * e / sc) ** 2
+    for i in range(8, N_STATE):
+        e = h * (
+            E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
+        )
+        sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
+        acc += (e / sc) ** 2
     return math.sqrt(acc / cnt)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
     for i in range(N_STATE):
         ydiff = ynew[i] - y[i]
@@ -213,7 +227,7 @@ def _dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
         )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _dense(rc, theta, out):  # type: ignore[no-untyped-def]
     th1 = 1.0 - theta
     for i in range(N_STATE):
@@ -222,7 +236,17 @@ def _dense(rc, theta, out):  # type: ignore[no-untyped-def]
         )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _dense_scan(rc, theta, out):  # type: ignore[no-untyped-def]
+    """Like ``_dense`` for the components the event functions 0..9 read (x, y, v, w_x, w_y)."""
+    th1 = 1.0 - theta
+    for i in (0, 1, 2, 3, 8, 9):
+        out[i] = rc[0, i] + theta * (
+            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + th1 * rc[4, i]))
+        )
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _event_values(yy, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer, gv):  # type: ignore[no-untyped-def]
     """Values of the event functions at state yy (each fires on a >= 0 -> < 0 change).
 
@@ -259,7 +283,7 @@ def _event_values(yy, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer
             gv[9] = math.sqrt(sx * sx + sy * sy) - 0.5 * s_layer
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _dynamic_values(yy, par, phase, mu, uxr, uyr, orient, dtmp):  # type: ignore[no-untyped-def]
     """Friction reserve (rolling only) and normal force at yy (these need the equations)."""
     r = rhs(yy, par, phase, mu, uxr, uyr, orient, dtmp)
@@ -268,7 +292,7 @@ def _dynamic_values(yy, par, phase, mu, uxr, uyr, orient, dtmp):  # type: ignore
     return 1.0, r[0]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _locate(idx, ta, tb, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer,
             orient, ybuf, gv, dtmp):  # type: ignore[no-untyped-def]  # fmt: skip
     """Illinois root of event function idx on the dense output between ta (g >= 0) and tb (< 0)."""
@@ -303,7 +327,7 @@ def _locate(idx, ta, tb, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode
     return tb
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _eval_one(idx, t, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, thr, s_layer,
               orient, ybuf, gv, dtmp):  # type: ignore[no-untyped-def]  # fmt: skip
     _dense(rc, (t - t0) / h, ybuf)
@@ -314,7 +338,7 @@ def _eval_one(idx, t, rc, t0, h, par, phase, mu, uxr, uyr, bounds, slide_mode, t
     return gv[idx]
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _cell_bounds(ix, iy, x_edges, y_edges, lane_length, lane_width, bounds):  # type: ignore[no-untyped-def]
     nx = x_edges.shape[0]
     ny = y_edges.shape[0]
@@ -383,7 +407,7 @@ def _remove_slip(y, par):  # type: ignore[no-untyped-def]
     _apply_impulse(y, par, jx, jy)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", **NO_NRT)
 def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     """Horizontal impulse (jx, jy, 0) per unit mass at the contact point (in place)."""
     iw, rd = ball_frame(y, par)
@@ -400,6 +424,137 @@ def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     y[8] += dwx
     y[9] += dwy
     y[10] += dwz
+
+
+ADV_EVENT = 0  # an accepted step with an event inside it (or, when recording, any accepted step)
+ADV_MAX_STEPS = 1
+ADV_MAX_TIME = 2
+ADV_STALLED = 3
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, phase, mu, uxr, uyr,
+             t, h, facold, nsteps, nfev, rtol, slide_mode, slip_threshold, s_layer, orient,
+             margin_tol, max_time, max_steps, record_mode):  # type: ignore[no-untyped-def]  # fmt: skip
+    """Take steps (same phase, zone and friction law) until one contains an event or a limit
+    is hit; while recording, return after every accepted step.
+
+    A step without an event is taken (y, K[0], t, h updated) before returning; a step with an
+    event is not (t, h are its start and size, ``rc`` its dense output). Returns (code, t, h,
+    facold, nsteps, nfev, uxr, uyr, best_t, best_idx, t0, h0, ux, uy): t0, h0 the start and size
+    of the last accepted step, (ux, uy) the friction direction at its end."""
+    while True:
+        if nsteps >= max_steps:
+            return (ADV_MAX_STEPS, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t, h, uxr, uyr)
+        if t >= max_time:
+            return (ADV_MAX_TIME, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t, h, uxr, uyr)
+        if h < 1e-13 * max(1.0, t):
+            return (ADV_STALLED, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t, h, uxr, uyr)
+        if t + h > max_time:
+            h = max_time - t
+        if phase == PHASE_SLIDE:
+            sx, sy = slip(y, par)
+            s0 = math.sqrt(sx * sx + sy * sy)
+            if s0 > 0.0:
+                uxr = sx / s0
+                uyr = sy / s0
+        elif phase == PHASE_LAYER:
+            sx, sy = slip(y, par)
+            s0 = math.sqrt(sx * sx + sy * sy)
+            if s0 > 1e-2 * s_layer:
+                uxr = sx / s0
+                uyr = sy / s0
+        st = _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
+        nfev += 6
+        err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
+        if not (err <= 1.0):
+            # reject
+            fac11 = err**0.2 if err == err else 10.0
+            h = h / min(10.0, fac11 / 0.9)
+            continue
+        nsteps += 1
+        # ---- event scan on the dense output ----
+        _dense_coeffs(y, ynew, K, h, rc)
+        best_t = 1e300
+        best_idx = -1
+        _event_values(y, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold, s_layer,
+                      gprev)  # fmt: skip
+        ta = t
+        for j in range(1, N_SUB + 1):
+            tj = t + h * j / N_SUB
+            if j == N_SUB:
+                for i in range(N_STATE):
+                    ybuf[i] = ynew[i]
+            else:
+                _dense_scan(rc, j / N_SUB, ybuf)
+            _event_values(ybuf, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold,
+                          s_layer, gcur)  # fmt: skip
+            for idx in range(10):
+                if gprev[idx] >= 0.0 and gcur[idx] < 0.0:
+                    te = _locate(idx, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
+                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
+                                 dtmp)  # fmt: skip
+                    if te < best_t:
+                        best_t = te
+                        best_idx = idx
+            if best_idx >= 0:
+                break
+            for idx in range(10):
+                gprev[idx] = gcur[idx]
+            ta = tj
+        # dynamic events: friction reserve (rolling) and contact
+        if st[0] <= 0.0 or (phase == PHASE_ROLL and st[1] < -margin_tol):
+            m_prev, n_prev = _dynamic_values(y, par, phase, mu, uxr, uyr, orient, dtmp)
+            ta = t
+            t_hi = best_t if best_idx >= 0 else t + h
+            for j in range(1, N_SUB + 1):
+                tj = t + h * j / N_SUB
+                if tj > t_hi:
+                    tj = t_hi
+                _dense(rc, (tj - t) / h, ybuf)
+                m_cur, n_cur = _dynamic_values(ybuf, par, phase, mu, uxr, uyr, orient, dtmp)
+                nfev += 1
+                found = -1
+                if n_prev >= 0.0 and n_cur < 0.0:
+                    found = 11
+                elif phase == PHASE_ROLL and m_prev >= -margin_tol and m_cur < -margin_tol:
+                    found = 10
+                if found >= 0:
+                    te = _locate(found, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
+                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
+                                 dtmp)  # fmt: skip
+                    if te <= best_t:
+                        best_t = te
+                        best_idx = found
+                    break
+                m_prev = m_cur
+                n_prev = n_cur
+                ta = tj
+                if tj >= t_hi:
+                    break
+
+        if best_idx >= 0:
+            return (ADV_EVENT, t, h, facold, nsteps, nfev, uxr, uyr, best_t, best_idx, t, h,
+                    st[4], st[5])  # fmt: skip
+        # plain accepted step
+        t_start = t
+        h_acc = h
+        for i in range(N_STATE):
+            y[i] = ynew[i]
+            K[0, i] = K[6, i]
+        t = t + h
+        if orient:
+            qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
+            for i in range(4, 8):
+                y[i] /= qn
+        fac11 = err**0.2
+        fac = fac11 / facold**0.08
+        fac = max(0.1, min(5.0, fac / 0.9))
+        facold = max(err, 1e-4)
+        h = min(h / fac, H_MAX)
+        if record_mode != 0:
+            return (ADV_EVENT, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t_start, h_acc,
+                    st[4], st[5])  # fmt: skip
 
 
 @njit(cache=True, error_model="numpy")
@@ -491,132 +646,40 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         d1 += (K[0, i] / sc) ** 2
     h = 0.01 * math.sqrt(d0 / d1) if d1 > 0.0 else 1e-3
     h = min(max(h, 1e-6), 0.1)
-    h_max = 0.1
     facold = 1e-4
     t_next_sample = record_dt
     nsteps = 0
     n_transitions = 0
 
     while status == STATUS_RUNNING:
-        if nsteps >= max_steps:
+        (code, t, h, facold, nsteps, nfev, uxr, uyr, best_t, best_idx, t0, h0, ux1, uy1) = _advance(
+            y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, phase, mu, uxr, uyr,
+            t, h, facold, nsteps, nfev, rtol, slide_mode, slip_threshold, s_layer, orient,
+            margin_tol, max_time, max_steps, record_mode,
+        )  # fmt: skip
+        if code == ADV_MAX_STEPS:
             status = STATUS_MAX_STEPS
             break
-        if t >= max_time:
+        if code == ADV_MAX_TIME:
             status = STATUS_MAX_TIME
             ev, nev = _push_event(ev, nev, t, EVENT_MAX_TIME, y, mu, phase)
             break
-        if h < 1e-13 * max(1.0, t):
+        if code == ADV_STALLED:
             status = STATUS_STALLED
             break
-        if t + h > max_time:
-            h = max_time - t
-        if phase == PHASE_SLIDE:
-            sx, sy = slip(y, par)
-            s0 = math.sqrt(sx * sx + sy * sy)
-            if s0 > 0.0:
-                uxr = sx / s0
-                uyr = sy / s0
-        elif phase == PHASE_LAYER:
-            sx, sy = slip(y, par)
-            s0 = math.sqrt(sx * sx + sy * sy)
-            if s0 > 1e-2 * s_layer:
-                uxr = sx / s0
-                uyr = sy / s0
-        st = _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
-        nfev += 6
-        err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
-        if not (err <= 1.0):
-            # reject
-            fac11 = err**0.2 if err == err else 10.0
-            h = h / min(10.0, fac11 / 0.9)
-            continue
-        nsteps += 1
-        # ---- event scan on the dense output ----
-        _dense_coeffs(y, ynew, K, h, rc)
-        best_t = 1e300
-        best_idx = -1
-        _event_values(y, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold, s_layer,
-                      gprev)  # fmt: skip
-        ta = t
-        for j in range(1, N_SUB + 1):
-            tj = t + h * j / N_SUB
-            if j == N_SUB:
-                for i in range(N_STATE):
-                    ybuf[i] = ynew[i]
-            else:
-                _dense(rc, j / N_SUB, ybuf)
-            _event_values(ybuf, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold,
-                          s_layer, gcur)  # fmt: skip
-            for idx in range(10):
-                if gprev[idx] >= 0.0 and gcur[idx] < 0.0:
-                    te = _locate(idx, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
-                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
-                                 dtmp)  # fmt: skip
-                    if te < best_t:
-                        best_t = te
-                        best_idx = idx
-            if best_idx >= 0:
-                break
-            for idx in range(10):
-                gprev[idx] = gcur[idx]
-            ta = tj
-        # dynamic events: friction reserve (rolling) and contact
-        if st[0] <= 0.0 or (phase == PHASE_ROLL and st[1] < -margin_tol):
-            m_prev, n_prev = _dynamic_values(y, par, phase, mu, uxr, uyr, orient, dtmp)
-            ta = t
-            t_hi = best_t if best_idx >= 0 else t + h
-            for j in range(1, N_SUB + 1):
-                tj = t + h * j / N_SUB
-                if tj > t_hi:
-                    tj = t_hi
-                _dense(rc, (tj - t) / h, ybuf)
-                m_cur, n_cur = _dynamic_values(ybuf, par, phase, mu, uxr, uyr, orient, dtmp)
-                nfev += 1
-                found = -1
-                if n_prev >= 0.0 and n_cur < 0.0:
-                    found = 11
-                elif phase == PHASE_ROLL and m_prev >= -margin_tol and m_cur < -margin_tol:
-                    found = 10
-                if found >= 0:
-                    te = _locate(found, ta, tj, rc, t, h, par, phase, mu, uxr, uyr, bounds,
-                                 slide_mode, slip_threshold, s_layer, orient, ybuf, gv,
-                                 dtmp)  # fmt: skip
-                    if te <= best_t:
-                        best_t = te
-                        best_idx = found
-                    break
-                m_prev = m_cur
-                n_prev = n_cur
-                ta = tj
-                if tj >= t_hi:
-                    break
-
-        t_step_end = t + h if best_idx < 0 else best_t
+        # an accepted step from t0 to t0 + h0 (already taken unless an event lies inside it)
+        t_step_end = t0 + h0 if best_idx < 0 else best_t
         # ---- samples at a fixed rate from the dense output ----
         if record_mode == 2:
             while t_next_sample <= t_step_end:
-                _dense(rc, (t_next_sample - t) / h, ybuf)
+                _dense(rc, (t_next_sample - t0) / h0, ybuf)
                 rr = rhs(ybuf, par, phase, mu, uxr, uyr, orient, dtmp)
                 rec, nrec = _push(rec, nrec, t_next_sample, ybuf, phase, mu, rr[2], rr[3])
                 t_next_sample += record_dt
 
         if best_idx < 0:
-            # plain accepted step
-            for i in range(N_STATE):
-                y[i] = ynew[i]
-                K[0, i] = K[6, i]
-            t = t + h
-            if orient:
-                qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
-                for i in range(4, 8):
-                    y[i] /= qn
             if record_mode == 1:
-                rec, nrec = _push(rec, nrec, t, y, phase, mu, st[4], st[5])
-            fac11 = err**0.2
-            fac = fac11 / facold**0.08
-            fac = max(0.1, min(5.0, fac / 0.9))
-            facold = max(err, 1e-4)
-            h = min(h / fac, h_max)
+                rec, nrec = _push(rec, nrec, t, y, phase, mu, ux1, uy1)
             continue
 
         # ---- an event inside this step: redo the step to exactly best_t ----

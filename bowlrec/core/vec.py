@@ -6,41 +6,55 @@ Quaternions are (w, x, y, z) and rotate body-frame vectors into the lane frame.
 
 from __future__ import annotations
 
-import math
+from typing import Any
 
 from numba import njit
 
 from . import _kernel_cache  # noqa: F401  (drops stale kernel caches first)
 
+#: numba options of the kernels' helper functions, which allocate nothing: no reference counting
+#: (numba's atomic increments/decrements of their array arguments cost ~30% of the run time).
+#: ``_nrt`` is a numba-internal target option (used by numba itself, present since long before
+#: 0.60); a helper compiled with it must not create or return arrays.
+NO_NRT: dict[str, Any] = {"_nrt": False}
 
-@njit(cache=True, error_model="numpy")
+
+@njit(cache=True, error_model="numpy", forceinline=True)
 def cross(ax, ay, az, bx, by, bz):  # type: ignore[no-untyped-def]
     """a x b as a tuple."""
     return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", forceinline=True)
 def quat_matrix(qw, qx, qy, qz):  # type: ignore[no-untyped-def]
-    """Rotation matrix (row-major 9-tuple) of the quaternion, normalized first."""
-    n = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-    w = qw / n
-    x = qx / n
-    y = qy / n
-    z = qz / n
+    """Rotation matrix (row-major 9-tuple) of the quaternion, normalized first.
+
+    Written with s = 2 / |q|^2 (one division, no square root) so the division overlaps with the
+    products instead of preceding them."""
+    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    xx = qx * qx
+    yy = qy * qy
+    zz = qz * qz
+    xy = qx * qy
+    xz = qx * qz
+    yz = qy * qz
+    wx = qw * qx
+    wy = qw * qy
+    wz = qw * qz
     return (
-        1.0 - 2.0 * (y * y + z * z),
-        2.0 * (x * y - w * z),
-        2.0 * (x * z + w * y),
-        2.0 * (x * y + w * z),
-        1.0 - 2.0 * (x * x + z * z),
-        2.0 * (y * z - w * x),
-        2.0 * (x * z - w * y),
-        2.0 * (y * z + w * x),
-        1.0 - 2.0 * (x * x + y * y),
+        1.0 - s * (yy + zz),
+        s * (xy - wz),
+        s * (xz + wy),
+        s * (xy + wz),
+        1.0 - s * (xx + zz),
+        s * (yz - wx),
+        s * (xz - wy),
+        s * (yz + wx),
+        1.0 - s * (xx + yy),
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", forceinline=True)
 def world_inertia(m, k1, k2, k3):  # type: ignore[no-untyped-def]
     """R diag(k) R^T as a symmetric 6-tuple (xx, yy, zz, xy, xz, yz)."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = m
@@ -53,7 +67,7 @@ def world_inertia(m, k1, k2, k3):  # type: ignore[no-untyped-def]
     return ixx, iyy, izz, ixy, ixz, iyz
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", forceinline=True)
 def rotate(m, bx, by, bz):  # type: ignore[no-untyped-def]
     """R b for a row-major 9-tuple R."""
     return (
@@ -63,7 +77,7 @@ def rotate(m, bx, by, bz):  # type: ignore[no-untyped-def]
     )
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", forceinline=True)
 def solve3(a00, a01, a02, a10, a11, a12, a20, a21, a22, b0, b1, b2):  # type: ignore[no-untyped-def]
     """Solve the 3x3 system A x = b by the adjugate (A is well conditioned here)."""
     c00 = a11 * a22 - a12 * a21
