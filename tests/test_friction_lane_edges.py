@@ -50,3 +50,19 @@ def test_clip_to_lane_keeps_the_friction_on_the_lane() -> None:
     assert clipped.x_edges_m.tolist() == [5.0] and clipped.y_edges_m.tolist() == [0.5]
     # cell (x in [0, 5), y in [0, 0.5)) was row 2, column 1 of the original grid
     assert clipped.mu.tolist() == [[0.09, 0.10], [0.13, 0.14]]
+
+
+def test_a_ball_released_rolling_has_zero_slide() -> None:
+    """slide_m is where rolling first starts: the release point for a ball released rolling
+    (it has no slide -> roll event); a ball that never rolls keeps None."""
+    rolling = Scene.model_validate(
+        {"delivery": {"position_m": [0.5, 0.5334], "omega_radps": [0.0, 8.0 / 0.1085, 0.0]}}
+    )
+    for record in ("summary", "steps"):
+        options = rolling.options.model_copy(update={"record": record})
+        s = bowlrec.simulate(rolling.model_copy(update={"options": options})).summary
+        assert s.slide_m == 0.5
+    never = Scene.model_validate(
+        {"lane": {"friction": {"kind": "constant", "mu": 0.001}}, "options": {"record": "summary"}}
+    )
+    assert bowlrec.simulate(never).summary.slide_m is None

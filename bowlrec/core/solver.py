@@ -9,7 +9,7 @@ import numpy as np
 
 from .closed_form import closed_form_kernel
 from .derive import derive_samples
-from .dynamics import N_STATE, PHASE_ROLL, pack_params
+from .dynamics import N_STATE, PHASE_ROLL, pack_params, roll_accel, slip
 from .integrator import (
     COL_MU,
     COL_PHASE,
@@ -189,6 +189,21 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
     )
 
 
+def released_rolling(plan: Plan) -> bool:
+    """True when the kernel starts the run rolling: zero slip at release and the friction
+    suffices (the same test as the integrator's initial phase, on the same compiled helpers)."""
+    y = initial_state(plan)
+    par = kernel_params(plan)
+    sx, sy = slip(y, par)
+    if math.sqrt(sx * sx + sy * sy) > 0.0:
+        return False
+    ix = int(np.searchsorted(plan.friction_x_edges_m, y[0], side="right"))
+    iy = int(np.searchsorted(plan.friction_y_edges_m, y[1], side="right"))
+    mu = float(plan.friction_mu[ix, iy])
+    r = roll_accel(y, par)
+    return bool(mu * r[7] - math.hypot(r[5], r[6]) >= -plan.rtol * plan.g_mps2)
+
+
 def summarize(
     plan: Plan,
     status: int,
@@ -206,6 +221,8 @@ def summarize(
             slide = float(row[2])
             break
     x0, y0 = (float(v) for v in plan.position0_m)
+    if slide is None and released_rolling(plan):
+        slide = x0  # rolling from the release point: no slide, and no slide -> roll event
     vx0, vy0 = (float(v) for v in plan.velocity0_mps)
     hook = pocket = None
     if status == STATUS_PINS:

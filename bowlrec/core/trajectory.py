@@ -53,8 +53,8 @@ class Summary:
 
     hook_m: leftward (+y) deflection at the pins relative to the straight line along the initial
     velocity; pocket_deg: angle of the velocity to the x axis at the pins (positive toward the
-    left); slide_m: x where rolling first starts (None if the ball never rolls). hook_m and
-    pocket_deg are None unless the outcome is "pins".
+    left); slide_m: x where rolling first starts (the release x for a ball released rolling,
+    None if the ball never rolls). hook_m and pocket_deg are None unless the outcome is "pins".
     """
 
     outcome: str
