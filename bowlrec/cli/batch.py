@@ -72,8 +72,11 @@ def batch(
     ] = None,
     quiet: QuietOption = False,
 ) -> None:
-    """Run a batch job: simulate every run of its sweep not yet archived, add it to the
-    archive and write one table row per run (resumable: rerunning skips archived runs)."""
+    """Run a batch job (sweeps of scenes) into the archive and write its summary table.
+
+    Every run of the sweep not yet archived is simulated and added; one table row per run.
+    Resumable: rerunning skips archived runs.
+    """
     from bowlrec.batch import JobError, load_job, prepare_runs, run_prepared, write_table
 
     if not job.exists():

@@ -62,8 +62,10 @@ def serve(
         str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
     ] = "info",
 ) -> None:
-    """Serve the archive over HTTP: submit scenes and jobs, list and download runs, manage the
-    ball library. API docs at http://HOST:PORT/docs."""
+    """Serve the archive over HTTP (API docs at http://HOST:PORT/docs).
+
+    Submit scenes and jobs, list and download runs, manage the ball library.
+    """
     token = os.environ.get(token_env) or None
     if token is None and not is_loopback(host) and not insecure:
         fail(
