@@ -29,6 +29,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from bowlrec.readme_blocks import replace_block
+
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "h5py", "rerun", "mcap", "foxglove", "matplotlib", "scipy", "pydantic")
 
@@ -209,14 +211,6 @@ def _markdown(doc: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _update_readme(table: str) -> None:
-    path = ROOT / "README.md"
-    begin, end = "<!-- formats:begin -->\n", "<!-- formats:end -->\n"
-    text = path.read_text()
-    i, j = text.index(begin) + len(begin), text.index(end)
-    path.write_text(text[:i] + table + text[j:])
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
@@ -238,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     table = _markdown(doc)
     (args.out / "formats.md").write_text(table)
     if args.update_readme:
-        _update_readme(table)
+        replace_block(ROOT / "README.md", "formats", table)
     print(table)
     return 0
 

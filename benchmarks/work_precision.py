@@ -30,6 +30,7 @@ import numpy as np
 
 from bowlrec.core.plan import RECORD_SUMMARY, Plan
 from bowlrec.core.solver import kernel_call, solve
+from bowlrec.readme_blocks import replace_block
 
 from .methods import run_method
 from .scenes import random_plans, table3_plans
@@ -393,13 +394,6 @@ def _markdown(doc: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _update_readme(path: Path, table: str) -> None:
-    begin, end = "<!-- bench:begin -->\n", "<!-- bench:end -->\n"
-    text = path.read_text()
-    i, j = text.index(begin) + len(begin), text.index(end)
-    path.write_text(text[:i] + table + text[j:])
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="30 random scenes, fewer settings")
@@ -451,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
     table = _targets_markdown(doc) + "\n" + _markdown(doc)
     (args.out / "work_precision.md").write_text(table)
     if args.update_readme:
-        _update_readme(ROOT / "README.md", table)
+        replace_block(ROOT / "README.md", "bench", table)
     _plot(results, args.out / "work_precision.png")
     print(json.dumps({k: doc[k] for k in ("reference_cross_check", "throughput", "startup")}))
     print(json.dumps(doc["fastest_bowlrec_meeting_targets"]))

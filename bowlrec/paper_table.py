@@ -126,18 +126,12 @@ def markdown_table(rows: list[ComparisonRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
-README_BEGIN = "<!-- table3:begin -->\n"
-README_END = "<!-- table3:end -->\n"
+#: the README block that holds the Table III comparison (see bowlrec.readme_blocks)
+README_BLOCK = "table3"
 
 
 def update_readme(path: str | Path, table: str) -> bool:
     """Replace the Table III block of a README; returns True when the file changed."""
-    p = Path(path)
-    text = p.read_text(encoding="utf-8")
-    start = text.index(README_BEGIN) + len(README_BEGIN)
-    end = text.index(README_END)
-    new = text[:start] + table + text[end:]
-    if new == text:
-        return False
-    p.write_text(new, encoding="utf-8")
-    return True
+    from .readme_blocks import replace_block
+
+    return replace_block(path, README_BLOCK, table)

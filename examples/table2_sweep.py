@@ -21,6 +21,7 @@ from typing import Any
 import bowlrec
 from bowlrec.bowling.ball import StaticWeights
 from bowlrec.bowling.scene import BowlerScene
+from bowlrec.readme_blocks import replace_block
 
 ROOT = Path(__file__).resolve().parents[1]
 FT = 0.3048
@@ -150,11 +151,7 @@ def main() -> None:
     (ROOT / "docs").mkdir(exist_ok=True)
     (ROOT / "docs" / "table2-sweep.md").write_text(text)
     if args.update_readme:
-        readme = ROOT / "README.md"
-        begin, end = "<!-- table2:begin -->\n", "<!-- table2:end -->\n"
-        doc = readme.read_text()
-        i, j = doc.index(begin) + len(begin), doc.index(end)
-        readme.write_text(doc[:i] + text + doc[j:])
+        replace_block(ROOT / "README.md", "table2", text)
     print(text)
 
 

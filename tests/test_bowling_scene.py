@@ -106,8 +106,9 @@ def test_readme_table2_block_is_the_computed_one() -> None:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     text = module.markdown(module.sweeps())
-    readme = (root / "README.md").read_text()
-    block = readme.split("<!-- table2:begin -->\n")[1].split("<!-- table2:end -->")[0]
+    from bowlrec.readme_blocks import read_block
+
+    block = read_block(root / "README.md", "table2")
     assert block == text, "run: python examples/table2_sweep.py --update-readme"
 
 

@@ -10,6 +10,7 @@ that finished, and marks the rest ``cancelled``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import signal
@@ -22,6 +23,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+
+from bowlrec.core.trajectory import Summary
 
 from .job import JobSpec, PreparedRun, prepare_runs
 
@@ -46,21 +49,8 @@ __all__ = [
 #: outcomes that mean the model or the solver gave up: recorded as failures, not archived
 FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
 
-#: summary metrics of every table row (units in the names; outcome is text)
-METRIC_COLUMNS = (
-    "outcome",
-    "slide_m",
-    "hook_m",
-    "pocket_deg",
-    "time_s",
-    "x_end_m",
-    "y_end_m",
-    "speed_end_mps",
-    "rev_rate_end_rpm",
-    "n_steps",
-    "n_rhs",
-    "n_events",
-)
+#: summary metrics of every table row: the Summary fields but the message (units in the names)
+METRIC_COLUMNS = tuple(f.name for f in dataclasses.fields(Summary) if f.name != "message")
 
 #: row statuses: simulated and added now / found in the archive / not run (see error) /
 #: not reached before cancellation

@@ -119,21 +119,5 @@ def with_progress(
 
 
 def summary_json(summary: Any) -> dict[str, Any]:
-    """The summary keys the CLI prints with --json."""
-    d = summary.to_dict()
-    keys = [
-        "outcome",
-        "message",
-        "slide_m",
-        "hook_m",
-        "pocket_deg",
-        "time_s",
-        "x_end_m",
-        "y_end_m",
-        "speed_end_mps",
-        "rev_rate_end_rpm",
-        "n_steps",
-        "n_rhs",
-        "n_events",
-    ]
-    return {k: d[k] for k in keys}
+    """The summary as the CLI prints it with --json (every :class:`Summary` field)."""
+    return dict(summary.to_dict())
