@@ -9,7 +9,13 @@ import pytest
 
 from bowlrec.core.batch import batch_metrics, pack_plans, run_batch
 from bowlrec.core.plan import RECORD_SUMMARY, Plan
-from bowlrec.core.solver import needs_orientation, orientation_weight, solve, use_closed_form
+from bowlrec.core.solver import (
+    ORIENTATION_GAIN,
+    needs_orientation,
+    orientation_weight,
+    solve,
+    use_closed_form,
+)
 from bowlrec.paper import paper_scene
 from bowlrec.spec import Scene
 
@@ -98,7 +104,11 @@ def test_orientation_is_integrated_only_when_something_depends_on_it() -> None:
     assert needs_orientation(paper_scene(1).resolve())  # samples recorded: orientation output
     nonuniform = replace(paper_scene(16).resolve(), record_mode=RECORD_SUMMARY)
     assert needs_orientation(nonuniform)
-    assert 0.0 < orientation_weight(nonuniform) < 0.1
+    # Table III case 16: RG 2.46 / 2.60 in; weighted by 10x its relative influence, below 1
+    k = np.asarray(nonuniform.inertia_per_mass_m2)
+    influence = (k.max() - k.min()) / k.mean()
+    assert orientation_weight(nonuniform) == pytest.approx(ORIENTATION_GAIN * influence)
+    assert 0.0 < orientation_weight(nonuniform) < 1.0
 
 
 def test_summary_only_weighting_of_the_orientation_keeps_the_metrics() -> None:

@@ -300,6 +300,51 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     return math.cos(phi), math.sin(phi)
 
 
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def radial_direction(y, par, mu, sx, sy):  # type: ignore[no-untyped-def]
+    """Friction direction that makes a small slip along the unit (sx, sy) shrink straight to zero.
+
+    Returns (ok, ux, uy): the unit u with ds/dt(u) = -kappa (sx, sy), kappa > 0 (Newton on the
+    angle of u, started at the slip's own direction). ``ok`` is False when the rolling ball would
+    need more friction than mu n (then no slip can be driven to zero and the slip restarts along
+    the slaved direction) or when Newton fails.
+
+    Why: when rolling is possible, |f_roll| <= mu n, every small slip reaches zero in finite
+    time (V = s^T W^-1 s, W the contact mobility, decreases at a rate >= 2 |s| (mu n - |f_roll|)),
+    but its direction turns at a rate ~ |ds/dt| / |s| on the way: stiff. Below slip_layer / 2
+    bowlrec lets friction (still of size mu n) act along this direction instead, so the slip
+    runs straight into zero and the slide->roll root is an ordinary, non-stiff sign change. The
+    total friction impulse up to the root is fixed by the end condition s = 0, so the motion
+    after it is unchanged to O(|s|^2); the root itself moves by at most the layer's crossing time
+    ~ slip_layer / (2 kappa) (measured: <= 0.2 mm of slide at rtol 1e-6).
+    """
+    r = roll_accel(y, par)
+    if mu * r[7] < math.sqrt(r[5] * r[5] + r[6] * r[6]):
+        return False, sx, sy
+    frame = _slide_frame(y, par)
+    phi = math.atan2(sy, sx)
+    for _ in range(12):
+        cx = math.cos(phi)
+        cy = math.sin(phi)
+        ax, ay = _slip_rate_frame(y, par, frame, mu, cx, cy)
+        h0 = sx * ay - sy * ax
+        scale = abs(ax) + abs(ay) + 1e-300
+        if abs(h0) <= 1e-13 * scale:
+            return sx * ax + sy * ay < 0.0, cx, cy
+        d = 1e-7
+        tx, ty = _slip_rate_frame(y, par, frame, mu, math.cos(phi + d), math.sin(phi + d))
+        dh = (sx * ty - sy * tx - h0) / d
+        if abs(dh) < 1e-12 * scale:
+            return False, sx, sy
+        step = -h0 / dh
+        if step > 0.5:
+            step = 0.5
+        elif step < -0.5:
+            step = -0.5
+        phi += step
+    return False, sx, sy
+
+
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: ignore[no-untyped-def]
     """Unit direction of the friction force while sliding, given the slip (sx, sy), |s| = s.
@@ -308,8 +353,10 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: i
     the reference direction when the slip points back past the root, so the right-hand side
     stays smooth across the slide->roll root (located by the event s . u_ref = 0).
 
-    For a small slip the slaved direction is searched from the slip's own direction (continued
-    through zero like the plain law). It is used only when it lies within 15 degrees of it:
+    For a small slip, where rolling is possible, friction acts along ``radial_direction`` of the
+    slip's own direction (continued through zero like the plain law), which drives the slip
+    straight to zero. Otherwise the slaved direction is searched from the slip's direction. It
+    is used only when it lies within 15 degrees of it:
     where the slip direction is stiff it has relaxed onto the slaved direction, and where it has
     not (or where the slaved direction is ill-defined, as for a nearly uniform ball whose slip
     direction is not stiff at all) the plain Coulomb direction is exact. A slip
@@ -324,6 +371,13 @@ def friction_direction(y, par, phase, mu, ux_ref, uy_ref, sx, sy, s):  # type: i
             if ux0 * ux_ref + uy0 * uy_ref < -0.5:
                 ux0 = -ux0
                 uy0 = -uy0
+        else:
+            ux0 = ux_ref
+            uy0 = uy_ref
+        ok, ux, uy = radial_direction(y, par, mu, ux0, uy0)
+        if ok:
+            return ux, uy
+        if s > 1e-2 * s_layer:
             ux, uy = slaved_direction(y, par, mu, ux0, uy0)
             if ux * ux0 + uy * uy0 < 0.966:
                 return ux0, uy0

@@ -3,8 +3,11 @@
 Method: Dormand-Prince 5(4) (FSAL, Hairer's step-size control with a PI factor) and its
 4th-order continuous extension for dense output. Events are located on the dense output by
 safeguarded regula falsi (Illinois) to ~1e-15 relative in time, then the step is redone from its
-start to exactly the event time so the state there has the full 5th-order accuracy; the
-integration restarts at every event (the right-hand side is discontinuous there).
+start to exactly the event time so the state there has the full 5th-order accuracy (with its
+error checked, and split into smaller steps if it fails: ``_step_to``); the integration restarts
+at every event (the right-hand side is discontinuous there). The event functions are scanned at
+4 points of the dense output only when one of them could change sign inside the step
+(``_may_cross``: bounds from the stage derivatives); most steps need just the two end values.
 
 Events (a function g fires where it goes from >= 0 to < 0 between two dense samples):
 
@@ -27,12 +30,17 @@ Stiff restart of sliding. When a rolling ball starts to slip again, |s| grows fr
 slip direction relaxes at a rate ~ mu g (1 + R^2/k^2) / |s|; an explicit method would crawl with
 ~1e-9 s steps. The same stiffness appears whenever the slip lingers near zero (a ball at the edge
 of the friction cone, the stick-slip of Table III cases 5 and 18). Below a slip speed ``s_layer``
-(entered at s_layer / 2, left at s_layer: hysteresis) bowlrec lets friction act along the slaved
-direction (the unit u with ds/dt(u) parallel to +u, the |s| -> 0 limit of the exact dynamics)
-instead of integrating the stiff relaxation of the slip direction. The error this introduces
-vanishes with s_layer; ``solver.slip_layer`` ties it to the tolerance (1e-5 m/s at rtol 1e-9,
-where against s_layer = 1e-8 m/s it moves hook and pocket of cases 5 and 18 by <= 6e-7 m and
-<= 3e-5 deg while taking 12-100x fewer steps).
+(entered at s_layer / 2, left at s_layer: hysteresis) bowlrec does not integrate the stiff
+relaxation of the slip direction. Where rolling is possible (the rolling ball needs at most mu n)
+every small slip reaches zero in finite time, and friction acts along the direction that makes
+it shrink straight to zero (``dynamics.radial_direction``); otherwise (the slip restarts from
+rolling) along the slaved direction (the unit u with ds/dt(u) parallel to +u, the |s| -> 0 limit
+of the exact dynamics). While sliding, a step is cut to end about where the linearly
+extrapolated slip reaches s_layer / 4, so steps do not jump across |s| = 0, where the Coulomb
+direction is singular (a curved approach could pass beside the root unseen). The error this
+introduces vanishes with s_layer; ``solver.slip_layer`` ties it to the tolerance (1e-5 m/s at
+rtol 1e-9, where against s_layer = 1e-8 m/s it moves hook, pocket and slide of cases 5 and 18 by
+<= 6.1e-7 m, 2.9e-5 deg and 2.1e-8 m while taking 11-34x fewer right-hand sides).
 """
 
 from __future__ import annotations
@@ -46,6 +54,7 @@ from .dynamics import (
     N_STATE,
     P_G,
     P_QWEIGHT,
+    P_R,
     P_SLAYER,
     PHASE_LAYER,
     PHASE_ROLL,
@@ -413,7 +422,7 @@ def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     iw, rd = ball_frame(y, par)
     ixx, iyy, izz, ixy, ixz, iyz = iw
     rdx, rdy, rdz = rd
-    R = par[0]
+    R = par[P_R]
     # angular impulse about the center of mass: rho x J, rho = r_Delta + R_con
     lx, ly, lz = cross(rdx, rdy, rdz - R, jx, jy, 0.0)
     dwx, dwy, dwz = solve3(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz, lx, ly, lz)
@@ -424,6 +433,74 @@ def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
     y[8] += dwx
     y[9] += dwy
     y[10] += dwz
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def _step_to(t, te, y, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient, rtol, nfev):  # type: ignore[no-untyped-def]
+    """Advance y (in place) from t exactly to the event time te; K[0] = f(y) on entry.
+
+    Normally one step of size te - t. Its error is checked like any step's: an event can sit
+    where the right-hand side is nearly singular (the slip direction right at the end of a
+    slide), and the stages of the shortened step can land worse than those of the accepted step
+    whose dense output located the event. Then [t, te] is integrated in smaller controlled steps.
+    Returns the friction direction at te and the updated RHS count."""
+    h = te - t
+    ux = uxr
+    uy = uyr
+    for _ in range(10_000):
+        if h >= te - t or t + h >= te:
+            h = te - t
+            last = True
+        else:
+            last = False
+        st = _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
+        nfev += 6
+        err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
+        if not (err <= 1.0) and h > 1e-13 * max(1.0, t):
+            fac = err**0.2 if err == err else 10.0
+            h = h / min(10.0, max(2.0, fac / 0.9))
+            continue
+        for i in range(N_STATE):
+            y[i] = ynew[i]
+            K[0, i] = K[6, i]
+        ux = st[4]
+        uy = st[5]
+        if last:
+            break
+        t = t + h
+        h = min(te - t, h * min(5.0, 0.9 / max(err, 1e-4) ** 0.2))
+    return ux, uy, nfev
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _may_cross(g0, g1, K, h, R, phase):  # type: ignore[no-untyped-def]
+    """False when no event function 0..9 can change sign inside the accepted step, so the
+    4-point scan of the dense output is skipped (it is then bit-identical: it would find nothing).
+
+    g0, g1: the event values at the ends of the step. Between them a function of x or y stays
+    within max|a| h^2 / 8 of the chord (a bound on its curvature; 2x safety); vx and the slip
+    functions move by at most h max|dg/dt| (1.5x safety), the maxima taken over the 7 stages."""
+    ax = 0.0
+    ay = 0.0
+    sd = 0.0
+    for i in range(7):
+        ax = max(ax, abs(K[i, 2]))
+        ay = max(ay, abs(K[i, 3]))
+        if phase != PHASE_ROLL:
+            sd = max(sd, abs(R * K[i, 9] - K[i, 2]) + abs(R * K[i, 8] + K[i, 3]))
+    cx = 0.25 * h * h * ax
+    cy = 0.25 * h * h * ay
+    lv = 1.5 * h * ax
+    ls = 1.5 * h * sd
+    if min(g0[0], g1[0]) <= cx or min(g0[1], g1[1]) <= cx or min(g0[4], g1[4]) <= cx:
+        return True
+    if min(g0[2], g1[2]) <= cy or min(g0[3], g1[3]) <= cy:
+        return True
+    if min(g0[5], g1[5]) <= cy or min(g0[6], g1[6]) <= cy:
+        return True
+    if min(g0[7], g1[7]) <= lv:
+        return True
+    return min(g0[8], g1[8]) <= ls or min(g0[9], g1[9]) <= ls
 
 
 ADV_EVENT = 0  # an accepted step with an event inside it (or, when recording, any accepted step)
@@ -443,6 +520,7 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
     event is not (t, h are its start and size, ``rc`` its dense output). Returns (code, t, h,
     facold, nsteps, nfev, uxr, uyr, best_t, best_idx, t0, h0, ux, uy): t0, h0 the start and size
     of the last accepted step, (ux, uy) the friction direction at its end."""
+    R = par[P_R]
     while True:
         if nsteps >= max_steps:
             return (ADV_MAX_STEPS, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t, h, uxr, uyr)
@@ -458,6 +536,15 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
             if s0 > 0.0:
                 uxr = sx / s0
                 uyr = sy / s0
+                # aim the step at the slip layer rather than across it: near |s| = 0 the Coulomb
+                # direction is singular, and a step whose stages land there can miss the root
+                # (a curved approach passes beside zero). Inside the layer the slip runs straight
+                # to zero (``radial_direction``) and the root is an ordinary sign change.
+                decay = -(uxr * (R * K[0, 9] - K[0, 2]) + uyr * (-R * K[0, 8] - K[0, 3]))
+                if decay > 0.0 and s0 > 0.5 * s_layer:
+                    h_layer = (s0 - 0.25 * s_layer) / decay
+                    if h > h_layer:
+                        h = h_layer
         elif phase == PHASE_LAYER:
             sx, sy = slip(y, par)
             s0 = math.sqrt(sx * sx + sy * sy)
@@ -474,13 +561,22 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
             continue
         nsteps += 1
         # ---- event scan on the dense output ----
-        _dense_coeffs(y, ynew, K, h, rc)
         best_t = 1e300
         best_idx = -1
         _event_values(y, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold, s_layer,
                       gprev)  # fmt: skip
+        _event_values(ynew, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold,
+                      s_layer, gcur)  # fmt: skip
+        scan = phase == PHASE_LAYER or _may_cross(gprev, gcur, K, h, R, phase)
+        if (
+            scan
+            or record_mode == 2
+            or st[0] <= 0.0
+            or (phase == PHASE_ROLL and st[1] < -margin_tol)
+        ):
+            _dense_coeffs(y, ynew, K, h, rc)
         ta = t
-        for j in range(1, N_SUB + 1):
+        for j in range(1, N_SUB + 1 if scan else 1):
             tj = t + h * j / N_SUB
             if j == N_SUB:
                 for i in range(N_STATE):
@@ -599,7 +695,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     nrec = 0
     ev = np.empty((16, N_EVCOL))
     nev = 0
-    s_accept = max(1e-11, 1e3 * rtol)
+    s_accept = s_layer  # a slip-direction root above the layer is a turn, not a zero
     margin_tol = rtol * g
 
     ix = np.searchsorted(x_edges, y[0], side="right")
@@ -685,12 +781,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         # ---- an event inside this step: redo the step to exactly best_t ----
         he = best_t - t
         if he > 0.0:
-            st2 = _stages(t, y, he, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient)
-            nfev += 6
-            for i in range(N_STATE):
-                y[i] = ynew[i]
-            uxe = st2[4]
-            uye = st2[5]
+            uxe, uye, nfev = _step_to(t, best_t, y, K, ytmp, ynew, par, phase, mu, uxr, uyr,
+                                      orient, rtol, nfev)  # fmt: skip
         else:
             uxe = uxr
             uye = uyr

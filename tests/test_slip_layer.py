@@ -1,0 +1,170 @@
+"""The end of a slide at loose tolerances: the radial slip layer, the step aimed at the layer,
+the error-checked step to an event, and the skipped event scan.
+
+Before these, the slide distance was the least accurate output by far: at rtol 1e-6 it was off by
+up to 6 mm (and by 0.5 m at 1e-5) on balls whose slip approaches zero slowly or along a curve,
+while hook and pocket were within 0.02 mm and 0.0002 deg.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from benchmarks.scenes import random_scene_dicts
+from bowlrec.core.dynamics import (
+    N_STATE,
+    P_R,
+    P_SLAYER,
+    PHASE_SLIDE,
+    radial_direction,
+    rhs,
+    roll_accel,
+    slip,
+    slip_rate,
+)
+from bowlrec.core.integrator import _dense, _dense_coeffs, _event_values, _may_cross, _stages
+from bowlrec.core.plan import RECORD_SUMMARY
+from bowlrec.core.solver import initial_state, kernel_params, solve
+from bowlrec.paper import paper_scene
+from bowlrec.spec import Scene
+
+SCENES = {d["name"]: d for d in random_scene_dicts()}
+
+
+def _plan(name: str):  # type: ignore[no-untyped-def]
+    d = dict(SCENES[name])
+    d["options"] = {**d.get("options", {}), "record": "summary"}
+    return Scene.model_validate(d).resolve()
+
+
+def _slide(plan, rtol: float, **kw: float) -> float:  # type: ignore[no-untyped-def]
+    s = solve(replace(plan, rtol=rtol, record_mode=RECORD_SUMMARY, **kw)).summary
+    assert s.slide_m is not None
+    return float(s.slide_m)
+
+
+# random002: the slip creeps to zero (0.7 m/s^2) and the ball rolls for only 2 ms (was 6.2 mm off
+# at rtol 1e-6 and 0.56 m at 1e-5); random104: a large step ran past |s| = 0 (2.1 mm);
+# random164: the slip turns by 30 degrees on its last 0.1 mm/s (1.5 mm).
+@pytest.mark.parametrize("name", ["random002", "random104", "random164"])
+def test_slide_is_accurate_at_loose_tolerances(name: str) -> None:
+    plan = _plan(name)
+    ref = _slide(plan, 1e-12, slip_layer_mps=1e-8)
+    for rtol in (1e-6, 3e-6):
+        # the benchmark's target for the slide distance is 1 mm
+        assert abs(_slide(plan, rtol) - ref) <= 1e-3, rtol
+
+
+def test_radial_direction_drives_the_slip_straight_to_zero() -> None:
+    """Where rolling is possible, ds/dt along the returned friction direction is antiparallel
+    to the slip (to 1e-12 relative) and the direction is a unit vector; where the rolling ball
+    would need more than mu n, it is refused."""
+    rng = np.random.default_rng(7)
+    n_ok = 0
+    n_possible = 0
+    for name in list(SCENES)[:40]:
+        plan = _plan(name)
+        par = kernel_params(plan)
+        y = initial_state(plan)
+        # make the ball nearly rolling: w chosen so that the slip is a tiny random vector
+        R = plan.radius_m
+        sx, sy = rng.normal(size=2) * 1e-5
+        y[9] = (y[2] + sx) / R
+        y[8] = -(y[3] + sy) / R
+        s = math.hypot(*slip(y, par))
+        ux0, uy0 = np.array(slip(y, par)) / s
+        for mu in (0.04, 0.2):
+            ok, ux, uy = radial_direction(y, par, mu, ux0, uy0)
+            r = roll_accel(y, par)
+            possible = mu * r[7] >= math.hypot(r[5], r[6])
+            if not possible:
+                assert not ok
+            else:
+                n_possible += 1
+                n_ok += 1
+                assert math.hypot(ux, uy) == pytest.approx(1.0, abs=1e-14)
+                ax, ay = slip_rate(y, par, mu, ux, uy)
+                a = math.hypot(ax, ay)
+                assert abs(ux0 * ay - uy0 * ax) <= 1e-12 * a
+                assert ux0 * ax + uy0 * ay < 0.0
+    assert n_ok >= 40  # the check ran on many states
+    assert n_ok == n_possible  # and Newton found the direction wherever rolling is possible
+
+
+def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
+    """Over random steps of random balls, wherever an event function changes sign on the
+    step's dense output (sampled at 400 points), ``_may_cross`` must not skip the scan.
+    Boundaries are placed right next to where the step ends or passes, so crossings occur."""
+    rng = np.random.default_rng(11)
+    K = np.empty((7, N_STATE))
+    ytmp = np.empty(N_STATE)
+    ynew = np.empty(N_STATE)
+    rc = np.empty((5, N_STATE))
+    yb = np.empty(N_STATE)
+    g0 = np.empty(12)
+    g1 = np.empty(12)
+    gm = np.empty(12)
+    bounds = np.empty(6)
+    n_cross = 0
+    n_skipped = 0
+    names = list(SCENES)
+    for trial in range(600):
+        plan = _plan(names[trial % len(names)])
+        par = kernel_params(plan)
+        y = initial_state(plan)
+        y[3] += rng.normal() * 0.5  # sideways motion, so y-boundaries matter
+        mu = 0.2
+        s = slip(y, par)
+        sn = math.hypot(*s)
+        uxr, uyr = s[0] / sn, s[1] / sn
+        h = 10 ** rng.uniform(-4, -1.3)
+        rhs(y, par, PHASE_SLIDE, mu, uxr, uyr, True, K[0])
+        _stages(0.0, y, h, K, ytmp, ynew, par, PHASE_SLIDE, mu, uxr, uyr, True)
+        _dense_coeffs(y, ynew, K, h, rc)
+        theta = rng.uniform(0.0, 1.0)
+        _dense(rc, theta, yb)
+        off_x = rng.normal() * 10 ** rng.uniform(-9, -1)
+        off_y = rng.normal() * 10 ** rng.uniform(-9, -2)
+        # a cell edge in x just before or after the step's end, one in y next to the dense path
+        bounds[0] = -1e300
+        bounds[1] = ynew[0] + off_x
+        bounds[2] = yb[1] + off_y if off_y < 0.0 else -1e300
+        bounds[3] = yb[1] + off_y if off_y >= 0.0 else 1e300
+        bounds[4] = 1e300
+        bounds[5] = 1e300
+        _event_values(y, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], g0)
+        _event_values(ynew, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], g1)
+        if not (g0[:10] >= 0.0).all():
+            continue
+        crossed = False
+        for th in np.linspace(0.0, 1.0, 401):
+            _dense(rc, th, yb)
+            _event_values(yb, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], gm)
+            if (gm[:10] < 0.0).any():
+                crossed = True
+                break
+        may = _may_cross(g0, g1, K, h, par[P_R], PHASE_SLIDE)
+        if crossed:
+            n_cross += 1
+            assert may, (trial, h, off_x, off_y)
+        elif not may:
+            n_skipped += 1
+    assert n_cross >= 100 and n_skipped >= 20, (n_cross, n_skipped)  # both branches ran
+
+
+@pytest.mark.parametrize("case", [5, 18])
+def test_stick_slip_cases_agree_with_a_tight_reference_at_loose_tolerance(case: int) -> None:
+    """Table III cases 5 and 18 (roll -> slide -> roll chattering, where the slip layer is
+    entered over and over) at rtol 3e-6 against rtol 1e-11: the benchmark's targets for hook
+    (0.1 mm), pocket (0.001 deg) and slide (1 mm)."""
+    plan = replace(paper_scene(case).resolve(), record_mode=RECORD_SUMMARY)
+    loose = solve(replace(plan, rtol=3e-6)).summary
+    ref = solve(replace(plan, rtol=1e-11)).summary
+    assert loose.outcome == ref.outcome
+    assert loose.hook_m == pytest.approx(ref.hook_m, abs=1e-4)
+    assert loose.pocket_deg == pytest.approx(ref.pocket_deg, abs=1e-3)
+    assert loose.slide_m == pytest.approx(ref.slide_m, abs=1e-3)
