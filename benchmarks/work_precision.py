@@ -334,6 +334,20 @@ def _speedups(results: list[dict[str, Any]], method: str, names: set[str]) -> li
     return out
 
 
+def _machine_probe() -> float:
+    """Seconds for a fixed pure-Python loop (best of 3): how fast this shared machine is at the
+    moment. Its speed varies by up to ~60 % within minutes; the probe runs before the timings,
+    before the throughput and at the end, so a slow phase shows in the JSON and the README."""
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        x = 0
+        for i in range(5_000_000):
+            x += i
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def _targets_markdown(doc: dict[str, Any]) -> str:
     best = doc["fastest_bowlrec_meeting_targets"]
     thr = doc["throughput"]
@@ -370,6 +384,15 @@ def _targets_markdown(doc: dict[str, Any]) -> str:
     ]
     lines = ["| target | measured | met |", "|---|---|---|"]
     lines += [f"| {a} | {b} | {'yes' if c else '**no**'} |" for a, b, c in rows]
+    probe = doc["machine"].get("python_loop_probe_s")
+    if probe:
+        lines += [
+            "",
+            "Machine probe (a 5,000,000-step pure-Python loop, s; lower is a faster machine): "
+            f"{probe['before_timings_s']:.2f} before the timings, "
+            f"{probe['before_throughput_s']:.2f} before the throughput, "
+            f"{probe['at_end_s']:.2f} at the end.",
+        ]
     return "\n".join(lines) + "\n"
 
 
@@ -406,6 +429,7 @@ def main(argv: list[str] | None = None) -> int:
     plans = table3_plans() + random_plans(n_random)
     print(f"{len(plans)} scenes; computing references ...", flush=True)
     refs = [_reference(p) for _, p in plans]
+    probe = {"before_timings_s": _machine_probe()}
     results = _run_bowlrec(plans, refs, repeats=3 if args.quick else 5)
     sub = plans[: args.scipy_scenes]
     sub_refs = refs[: args.scipy_scenes]
@@ -423,11 +447,16 @@ def main(argv: list[str] | None = None) -> int:
         and r["agg"]["outcome_mismatches"] == 0
     ]
     batch_rtol = max(r["setting"] for r in loose) if loose else 1e-6
+    probe["before_throughput_s"] = _machine_probe()
+    throughput = _throughput([p for _, p in plans], batch_rtol)
+    probe["at_end_s"] = _machine_probe()
+    print(f"machine probe (5M-step Python loop, s): {probe}", flush=True)
     doc = {
         "machine": {
             "python": platform.python_version(),
             "platform": platform.platform(),
             "cpus": os.cpu_count(),
+            "python_loop_probe_s": probe,
         },
         "scenes": {"table3": 18, "random": n_random, "scipy_and_paper_subset": len(sub)},
         "targets": TARGETS,
@@ -435,7 +464,7 @@ def main(argv: list[str] | None = None) -> int:
         "fastest_bowlrec_meeting_targets": None
         if best is None
         else {"rtol": best["setting"], **best["agg"]},
-        "throughput": _throughput([p for _, p in plans], batch_rtol),
+        "throughput": throughput,
         "startup": _startup(),
         "speedup_vs_DOP853": _speedups(results, "DOP853", {name for name, _ in sub}),
         "results": [{k: v for k, v in r.items() if k != "rows"} for r in results],

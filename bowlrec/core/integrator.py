@@ -503,6 +503,34 @@ def _may_cross(g0, g1, K, h, R, phase):  # type: ignore[no-untyped-def]
     return min(g0[8], g1[8]) <= ls or min(g0[9], g1[9]) <= ls
 
 
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def _initial_step(y, K, ytmp, dtmp, par, phase, mu, uxr, uyr, orient, rtol):  # type: ignore[no-untyped-def]
+    """Starting step size (s) for y with K[0] = f(y): Hairer's estimate (DOPRI5's ``hinit``),
+    from |f| and a finite-difference second derivative (one extra right-hand side), in the same
+    weighted norm as the error control, so that the first step's error is ~ the tolerance."""
+    qw = par[P_QWEIGHT]
+    dny = 0.0
+    dnf = 0.0
+    for i in range(N_STATE):
+        w = qw if 4 <= i < 8 else 1.0
+        sc = rtol * (1.0 + abs(y[i]))
+        dny += (w * y[i] / sc) ** 2
+        dnf += (w * K[0, i] / sc) ** 2
+    h = 0.01 * math.sqrt(dny / dnf) if dnf > 1e-10 and dny > 1e-10 else 1e-6
+    h = min(h, H_MAX)
+    for i in range(N_STATE):
+        ytmp[i] = y[i] + h * K[0, i]
+    rhs(ytmp, par, phase, mu, uxr, uyr, orient, dtmp)
+    der2 = 0.0
+    for i in range(N_STATE):
+        w = qw if 4 <= i < 8 else 1.0
+        sc = rtol * (1.0 + abs(y[i]))
+        der2 += (w * (dtmp[i] - K[0, i]) / sc) ** 2
+    der12 = max(math.sqrt(der2) / h, math.sqrt(dnf))
+    h1 = (0.01 / der12) ** 0.2 if der12 > 1e-15 else max(1e-6, h * 1e-3)
+    return max(1e-6, min(100.0 * h, h1, H_MAX))
+
+
 ADV_EVENT = 0  # an accepted step with an event inside it (or, when recording, any accepted step)
 ADV_MAX_STEPS = 1
 ADV_MAX_TIME = 2
@@ -733,15 +761,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         status = STATUS_AIRBORNE
         ev, nev = _push_event(ev, nev, t, EVENT_AIRBORNE, y, mu, phase)
 
-    # initial step (Hairer's heuristic, simplified)
-    d0 = 0.0
-    d1 = 0.0
-    for i in range(N_STATE):
-        sc = rtol * (1.0 + abs(y[i]))
-        d0 += (y[i] / sc) ** 2
-        d1 += (K[0, i] / sc) ** 2
-    h = 0.01 * math.sqrt(d0 / d1) if d1 > 0.0 else 1e-3
-    h = min(max(h, 1e-6), 0.1)
+    h = _initial_step(y, K, ytmp, dtmp, par, phase, mu, uxr, uyr, orient, rtol)
+    nfev += 1
     facold = 1e-4
     t_next_sample = record_dt
     nsteps = 0
@@ -791,7 +812,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
             qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
             for i in range(4, 8):
                 y[i] /= qn
-        h = max(h, 1e-6)
+        phase_before = phase
         facold = 1e-4
         n_transitions += 1
         if n_transitions > MAX_EVENTS:
@@ -872,6 +893,13 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
                 ev, nev = _push_event(ev, nev, t, kind, y, mu, phase)
         r0 = rhs(y, par, phase, mu, uxr, uyr, orient, K[0])
         nfev += 1
+        if phase != phase_before:
+            # the step size of the old phase says nothing about the new one (after a roll ->
+            # slide -> roll cycle it was the slip layer's ~1e-5 s): start afresh
+            h = _initial_step(y, K, ytmp, dtmp, par, phase, mu, uxr, uyr, orient, rtol)
+            nfev += 1
+        else:
+            h = max(h, 1e-6)
         if record_mode != 0:
             rec, nrec = _push(rec, nrec, t, y, phase, mu, r0[2], r0[3])
 
