@@ -256,6 +256,51 @@ def _slip_rate_frame(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-def]
     return R * aly - ax, -R * alx - ay
 
 
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _angle_newton(y, par, frame, mu, phi0, fx, fy, slaved, max_iter, max_turn):  # type: ignore[no-untyped-def]
+    """Newton's method on the friction angle phi for h(phi) = a x ds/dt(phi) = 0, where
+    ds/dt(phi) is the slip rate with friction along (cos phi, sin phi) and a is that same
+    direction (``slaved``) or the fixed unit (fx, fy). dh/dphi by a 1e-7 rad difference.
+
+    Returns (status, phi, ax, ay), (ax, ay) = ds/dt at the last phi evaluated: status 1
+    converged (|h| <= 1e-13 |ds/dt| or a step below 1e-14 rad), 2 out of iterations, 0 flat
+    (|dh/dphi| < 1e-3 |ds/dt|: the root is ill-defined), -1 wandered more than max_turn rad."""
+    phi = phi0
+    ax = 0.0
+    ay = 0.0
+    for _ in range(max_iter):
+        cx = math.cos(phi)
+        cy = math.sin(phi)
+        ax, ay = _slip_rate_frame(y, par, frame, mu, cx, cy)
+        px = cx if slaved else fx
+        py = cy if slaved else fy
+        h0 = px * ay - py * ax
+        scale = abs(ax) + abs(ay) + 1e-300
+        if abs(h0) <= 1e-13 * scale:
+            return 1, phi, ax, ay
+        d = 1e-7
+        c2 = math.cos(phi + d)
+        s2 = math.sin(phi + d)
+        tx, ty = _slip_rate_frame(y, par, frame, mu, c2, s2)
+        qx = c2 if slaved else fx
+        qy = s2 if slaved else fy
+        h1 = qx * ty - qy * tx
+        dh = (h1 - h0) / d
+        if abs(dh) < 1e-3 * scale:
+            return 0, phi, ax, ay
+        step = -h0 / dh
+        if step > 0.5:
+            step = 0.5
+        elif step < -0.5:
+            step = -0.5
+        phi += step
+        if abs(phi - phi0) > max_turn:
+            return -1, phi, ax, ay
+        if abs(step) < 1e-14:
+            return 1, phi, ax, ay
+    return 2, phi, ax, ay
+
+
 @njit(cache=True, error_model="numpy", **NO_NRT)
 def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     """Unit friction direction u with ds/dt(u) parallel to u (Newton on the angle from (ux, uy)).
@@ -269,34 +314,9 @@ def slaved_direction(y, par, mu, ux, uy):  # type: ignore[no-untyped-def]
     direction is returned unchanged, as it is if Newton wanders more than 1 rad away.
     """
     frame = _slide_frame(y, par)
-    phi0 = math.atan2(uy, ux)
-    phi = phi0
-    for _ in range(8):
-        cx = math.cos(phi)
-        cy = math.sin(phi)
-        sx, sy = _slip_rate_frame(y, par, frame, mu, cx, cy)
-        h0 = cx * sy - cy * sx
-        scale = abs(sx) + abs(sy) + 1e-300
-        if abs(h0) <= 1e-13 * scale:
-            break
-        d = 1e-7
-        c2 = math.cos(phi + d)
-        s2 = math.sin(phi + d)
-        tx, ty = _slip_rate_frame(y, par, frame, mu, c2, s2)
-        h1 = c2 * ty - s2 * tx
-        dh = (h1 - h0) / d
-        if abs(dh) < 1e-3 * scale:
-            return ux, uy
-        step = -h0 / dh
-        if step > 0.5:
-            step = 0.5
-        elif step < -0.5:
-            step = -0.5
-        phi += step
-        if abs(phi - phi0) > 1.0:
-            return ux, uy
-        if abs(step) < 1e-14:
-            break
+    status, phi, _, _ = _angle_newton(y, par, frame, mu, math.atan2(uy, ux), 0.0, 0.0, True, 8, 1.0)
+    if status <= 0:
+        return ux, uy
     return math.cos(phi), math.sin(phi)
 
 
@@ -316,32 +336,18 @@ def radial_direction(y, par, mu, sx, sy):  # type: ignore[no-untyped-def]
     runs straight into zero and the slide->roll root is an ordinary, non-stiff sign change. The
     total friction impulse up to the root is fixed by the end condition s = 0, so the motion
     after it is unchanged to O(|s|^2); the root itself moves by at most the layer's crossing time
-    ~ slip_layer / (2 kappa) (measured: <= 0.2 mm of slide at rtol 1e-6).
+    ~ slip_layer / (2 kappa) (over the 218 benchmark deliveries the whole slide error at rtol
+    1e-6 is <= 0.27 mm).
     """
     r = roll_accel(y, par)
     if mu * r[7] < math.sqrt(r[5] * r[5] + r[6] * r[6]):
         return False, sx, sy
     frame = _slide_frame(y, par)
-    phi = math.atan2(sy, sx)
-    for _ in range(12):
-        cx = math.cos(phi)
-        cy = math.sin(phi)
-        ax, ay = _slip_rate_frame(y, par, frame, mu, cx, cy)
-        h0 = sx * ay - sy * ax
-        scale = abs(ax) + abs(ay) + 1e-300
-        if abs(h0) <= 1e-13 * scale:
-            return sx * ax + sy * ay < 0.0, cx, cy
-        d = 1e-7
-        tx, ty = _slip_rate_frame(y, par, frame, mu, math.cos(phi + d), math.sin(phi + d))
-        dh = (sx * ty - sy * tx - h0) / d
-        if abs(dh) < 1e-12 * scale:
-            return False, sx, sy
-        step = -h0 / dh
-        if step > 0.5:
-            step = 0.5
-        elif step < -0.5:
-            step = -0.5
-        phi += step
+    status, phi, ax, ay = _angle_newton(
+        y, par, frame, mu, math.atan2(sy, sx), sx, sy, False, 12, 4.0
+    )
+    if status == 1 and sx * ax + sy * ay < 0.0:
+        return True, math.cos(phi), math.sin(phi)
     return False, sx, sy
 
 

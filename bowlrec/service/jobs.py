@@ -185,7 +185,8 @@ class JobManager:
     # -- life cycle ----------------------------------------------------------------------------
 
     def open(self) -> None:
-        """Take the jobs lock and load the records, marking unfinished ones interrupted.
+        """Take the jobs lock, repair the archive (this server is its writer) and load the
+        records, marking unfinished ones interrupted.
 
         Raises :class:`JobsLockedError` when another live server holds the lock.
         """
@@ -201,6 +202,11 @@ class JobManager:
             ) from None
         self._lock_file = fh
         remove_stale_parts(self.dir)
+        # a server killed between writing a run file and committing its index row leaves a file
+        # the index does not list: index it now, before ``done`` is recounted from the files
+        repaired = self.archive.repair()
+        if any(repaired.values()):
+            log.info("archive repaired after an unclean stop: %s", repaired)
         for path in sorted(self.dir.glob("*.json")):
             if path.name.endswith(".spec.json"):
                 continue
