@@ -392,7 +392,8 @@ def _targets_markdown(doc: dict[str, Any]) -> str:
     if probe:
         lines += [
             "",
-            "Machine probe (a 5,000,000-step pure-Python loop, s; lower is a faster machine): "
+            "Machine probe in the last measuring pass (a 5,000,000-step pure-Python loop, s; "
+            "lower is a faster machine; the times above are the best over all passes): "
             f"{probe['before_timings_s']:.2f} before the timings, "
             f"{probe['before_throughput_s']:.2f} before the throughput, "
             f"{probe['at_end_s']:.2f} at the end.",
