@@ -1,6 +1,7 @@
 """Work-precision benchmark: run time against error for bowlrec, scipy and the paper's scheme.
 
-    python -m benchmarks.work_precision [--quick] [--out benchmarks/results]
+    python -m benchmarks.work_precision [--quick] [--out benchmarks/results] [--update-readme]
+    python -m benchmarks.work_precision --remeasure [--update-readme]   # times only, best-of
 
 Writes ``work_precision.json`` (every number), ``work_precision.png`` (error vs time, log-log)
 and ``work_precision.md`` (the README table) into the output directory.
