@@ -1,0 +1,45 @@
+"""The README's benchmark tables are the committed result files, not hand edits."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from bowlrec.readme_blocks import read_block
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS = ROOT / "benchmarks" / "results"
+
+
+@pytest.mark.parametrize(
+    ("block", "table"),
+    [("bench", "work_precision.md"), ("formats", "formats.md"), ("stress", "stress.md")],
+)
+def test_readme_block_is_the_committed_result_table(block: str, table: str) -> None:
+    assert read_block(ROOT / "README.md", block) == (RESULTS / table).read_text()
+
+
+def test_committed_heavy_stress_run_passed() -> None:
+    doc = json.loads((RESULTS / "stress.json").read_text())
+    assert doc["returncode"] == 0 and len(doc["tests"]) >= 3
+    assert all(t["outcome"] == "passed" for t in doc["tests"])
+
+
+def test_committed_targets_match_the_measured_numbers() -> None:
+    """The 'met' column of the README's target table follows from the JSON's numbers."""
+    doc = json.loads((RESULTS / "work_precision.json").read_text())
+    best = doc["fastest_bowlrec_meeting_targets"]
+    targets = doc["targets"]
+    assert best["hook_mm"]["max"] <= targets["hook_mm"]
+    assert best["pocket_deg"]["max"] <= targets["pocket_deg"]
+    assert best["slide_mm"]["max"] <= targets["slide_mm"]
+    met = {
+        "median": best["time_median_us"] <= 100.0,
+        "batch": doc["throughput"]["summary_all_threads_per_s"] >= 30000.0,
+        "cli": doc["startup"]["cli_simulate_cold_shell_s"] <= 1.5,
+    }
+    rows = read_block(ROOT / "README.md", "bench").splitlines()[2:6]
+    said = [row.rstrip(" |").rsplit("|", 1)[1].strip() == "yes" for row in rows]
+    assert said[0] == met["median"] and said[2] == met["batch"] and said[3] == met["cli"]
