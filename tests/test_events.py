@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from scene_builders import scene
 
 from bowlrec import simulate
 
@@ -16,33 +17,6 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "paper"
 R = 0.1085
 G = 9.81
 W = 1.0668
-
-
-def scene(
-    *,
-    mu: float | dict[str, Any] = 0.12,
-    omega: tuple[float, float, float] = (0.0, 30.0, 0.0),
-    speed: float = 8.0,
-    angle: float = 0.0,
-    position: tuple[float, float] | None = None,
-    rg: tuple[float, float, float] = (0.067, 0.067, 0.067),
-    axis_1: tuple[float, float, float] = (1.0, 0.0, 0.0),
-    axis_2: tuple[float, float, float] | None = None,
-    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
-    **options: Any,
-) -> dict[str, Any]:
-    friction = {"kind": "constant", "mu": mu} if isinstance(mu, float) else mu
-    return {
-        "ball": {"rg_m": rg, "axis_1": axis_1, "axis_2": axis_2, "com_offset_m": offset},
-        "lane": {"friction": friction},
-        "delivery": {
-            "speed_mps": speed,
-            "takeoff_angle_deg": angle,
-            "omega_radps": omega,
-            "position_m": position,
-        },
-        "options": options,
-    }
 
 
 def paper_case(n: int) -> dict[str, Any]:

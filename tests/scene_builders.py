@@ -1,0 +1,39 @@
+"""Scene dictionaries for tests: a uniform-ish ball on a constant-friction lane by default,
+every field overridable (SI units: m, m/s, rad/s, degrees for the take-off angle)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+def scene(
+    *,
+    mu: float | dict[str, Any] = 0.12,
+    omega: tuple[float, float, float] = (0.0, 30.0, 0.0),
+    speed: float = 8.0,
+    angle: float = 0.0,
+    position: tuple[float, float] | None = None,
+    rg: tuple[float, float, float] = (0.067, 0.067, 0.067),
+    axis_1: tuple[float, float, float] = (1.0, 0.0, 0.0),
+    axis_2: tuple[float, float, float] | None = None,
+    offset: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    lane: dict[str, Any] | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    friction = {"kind": "constant", "mu": mu} if isinstance(mu, float) else mu
+    return {
+        "ball": {
+            "rg_m": list(rg),
+            "axis_1": list(axis_1),
+            "axis_2": None if axis_2 is None else list(axis_2),
+            "com_offset_m": list(offset),
+        },
+        "lane": {"friction": friction, **(lane or {})},
+        "delivery": {
+            "speed_mps": speed,
+            "takeoff_angle_deg": angle,
+            "omega_radps": list(omega),
+            "position_m": None if position is None else list(position),
+        },
+        "options": options,
+    }
