@@ -41,7 +41,6 @@ from .models import (
     RunRow,
     SpecError,
     SubmitResponse,
-    SummaryModel,
     parse_ball_spec,
     parse_scene_spec,
 )
@@ -181,7 +180,7 @@ def submit_scene(
         added=result.added,
         name=parsed.scene.name,
         ball_ref=parsed.ball_ref,
-        summary=SummaryModel(**result.trajectory.summary.to_dict()),
+        summary=result.trajectory.summary,
     )
 
 

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from bowlrec.core.trajectory import Summary
+
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
     from bowlrec.spec import Scene
@@ -57,22 +59,9 @@ class Health(BaseModel):
     auth: bool = Field(description="True when requests need a bearer token.")
 
 
-class SummaryModel(BaseModel):
-    """The Table III quantities of one delivery (SI units; see ``bowlrec.core.trajectory``)."""
-
-    outcome: str
-    message: str
-    slide_m: float | None
-    hook_m: float | None
-    pocket_deg: float | None
-    time_s: float
-    x_end_m: float
-    y_end_m: float
-    speed_end_mps: float
-    rev_rate_end_rpm: float
-    n_steps: int
-    n_rhs: int
-    n_events: int
+#: The Table III quantities of one delivery (SI units): the solver's own ``Summary`` dataclass,
+#: which pydantic validates and documents as it is (no second copy of its fields to keep in step).
+SummaryModel = Summary
 
 
 class SubmitResponse(BaseModel):
