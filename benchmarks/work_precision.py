@@ -341,7 +341,7 @@ def _speedups(results: list[dict[str, Any]], method: str, names: set[str]) -> li
 
 def _machine_probe() -> float:
     """Seconds for a fixed pure-Python loop (best of 3): how fast this shared machine is at the
-    moment. Its speed varies by up to ~60 % within minutes; the probe runs before the timings,
+    moment. Its speed varies by up to 2x within minutes; the probe runs before the timings,
     before the throughput and at the end, so a slow phase shows in the JSON and the README."""
     best = math.inf
     for _ in range(3):
