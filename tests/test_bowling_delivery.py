@@ -13,6 +13,7 @@ from bowlrec.api import simulate
 from bowlrec.bowling.delivery import (
     BowlerDelivery,
     axis_angles_deg,
+    hooking_delivery,
     mirror_delivery,
     mirror_omega,
     omega_from_axis,
@@ -214,21 +215,34 @@ def _assert_same(a: BowlerDelivery, b: BowlerDelivery, *, angles: bool = True) -
             assert va == vb, key
 
 
+def _grid_delivery(
+    hand: Handedness,
+    mph: float,
+    rpm: float,
+    rot: float,
+    tilt: float,
+    board: float,
+    ft: float,
+    launch: float,
+) -> BowlerDelivery:
+    return BowlerDelivery(
+        handedness=hand,
+        speed_mph=mph,
+        rev_rate_rpm=rpm,
+        axis_rotation_deg=rot,
+        axis_tilt_deg=tilt,
+        laydown_board=board,
+        laydown_ft=ft,
+        launch_angle_deg=launch,
+    )
+
+
 def test_bowler_physics_bowler_round_trip() -> None:
-    for hand, mph, rpm, rot, tilt, board, ft, launch in _GRID:
-        bd = BowlerDelivery(
-            handedness=hand,
-            speed_mph=mph,
-            rev_rate_rpm=rpm,
-            axis_rotation_deg=rot,
-            axis_tilt_deg=tilt,
-            laydown_board=board,
-            laydown_ft=ft,
-            launch_angle_deg=launch,
-        )
+    for hand, *row in _GRID:
+        bd = _grid_delivery(hand, *row)
         back = BowlerDelivery.from_physical(bd.to_physical(LANE), LANE, hand)
         # with no rotation the axis is undefined (both angles come back as 0)
-        _assert_same(bd, back, angles=rpm > 0.0)
+        _assert_same(bd, back, angles=bd.rev_rate_rpm > 0.0)
 
 
 @pytest.mark.parametrize("hand", HANDS)
@@ -281,16 +295,8 @@ def test_mirror_of_an_axial_vector() -> None:
 
 
 def test_left_hander_is_the_exact_mirror_of_a_right_hander() -> None:
-    for _, mph, rpm, rot, tilt, board, ft, launch in _GRID[:: len(HANDS) * 7]:
-        rh = BowlerDelivery(
-            speed_mph=mph,
-            rev_rate_rpm=rpm,
-            axis_rotation_deg=rot,
-            axis_tilt_deg=tilt,
-            laydown_board=board,
-            laydown_ft=ft,
-            launch_angle_deg=launch,
-        )
+    for _, *row in _GRID[:: len(HANDS) * 7]:
+        rh = _grid_delivery("right", *row)
         lh = rh.mirrored()
         assert lh.handedness == "left"
         assert lh.mirrored() == rh
@@ -321,14 +327,7 @@ def _uniform_scene(bd: BowlerDelivery, record: str = "summary") -> Scene:
 
 
 def test_right_handed_rotation_hooks_left_and_the_left_hander_mirrors_it() -> None:
-    rh = BowlerDelivery(
-        speed_mph=17.0,
-        rev_rate_rpm=300.0,
-        axis_rotation_deg=45.0,
-        axis_tilt_deg=10.0,
-        laydown_board=15.0,
-        target_board_at_arrows=10.0,
-    )
+    rh = hooking_delivery()
     right = simulate(_uniform_scene(rh)).summary
     left = simulate(_uniform_scene(rh.mirrored())).summary
     assert right.outcome == left.outcome == "pins"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bowlrec.api import simulate
-from bowlrec.bowling.delivery import BowlerDelivery
+from bowlrec.bowling.delivery import BowlerDelivery, hooking_delivery
 from bowlrec.bowling.lane import BowlerLane, Handedness
 from bowlrec.bowling.report import BowlerReport, NoSamplesError, bowler_report
 from bowlrec.bowling.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
@@ -18,14 +18,7 @@ from bowlrec.spec import Ball, Scene
 LANE = BowlerLane()
 RADIUS_M = 0.1085
 #: a right-hander's hooking delivery: from board 15 over the second arrow, 45 deg rotation
-HOOK = BowlerDelivery(
-    speed_mph=17.0,
-    rev_rate_rpm=300.0,
-    axis_rotation_deg=45.0,
-    axis_tilt_deg=10.0,
-    laydown_board=15.0,
-    target_board_at_arrows=10.0,
-)
+HOOK = hooking_delivery()
 
 
 def _run(bd: BowlerDelivery, record: str = "steps", dt_s: float = 0.001) -> Trajectory:

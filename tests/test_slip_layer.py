@@ -14,10 +14,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from benchmarks.scenes import random_scene_dicts
+from benchmarks.scenes import random_plans
 from bowlrec.core.dynamics import (
     N_STATE,
-    P_R,
     P_SLAYER,
     PHASE_SLIDE,
     radial_direction,
@@ -30,15 +29,9 @@ from bowlrec.core.integrator import _dense, _dense_coeffs, _event_values, _may_c
 from bowlrec.core.plan import RECORD_SUMMARY
 from bowlrec.core.solver import initial_state, kernel_params, solve
 from bowlrec.paper import paper_scene
-from bowlrec.spec import Scene
 
-SCENES = {d["name"]: d for d in random_scene_dicts()}
-
-
-def _plan(name: str):  # type: ignore[no-untyped-def]
-    d = dict(SCENES[name])
-    d["options"] = {**d.get("options", {}), "record": "summary"}
-    return Scene.model_validate(d).resolve()
+#: the benchmark's random deliveries by name (summary-only plans)
+PLANS = dict(random_plans())
 
 
 def _slide(plan, rtol: float, **kw: float) -> float:  # type: ignore[no-untyped-def]
@@ -52,7 +45,7 @@ def _slide(plan, rtol: float, **kw: float) -> float:  # type: ignore[no-untyped-
 # random164: the slip turns by 30 degrees on its last 0.1 mm/s (1.5 mm).
 @pytest.mark.parametrize("name", ["random002", "random104", "random164"])
 def test_slide_is_accurate_at_loose_tolerances(name: str) -> None:
-    plan = _plan(name)
+    plan = PLANS[name]
     ref = _slide(plan, 1e-12, slip_layer_mps=1e-8)
     for rtol in (1e-6, 3e-6):
         # the benchmark's target for the slide distance is 1 mm
@@ -66,8 +59,7 @@ def test_radial_direction_drives_the_slip_straight_to_zero() -> None:
     rng = np.random.default_rng(7)
     n_ok = 0
     n_possible = 0
-    for name in list(SCENES)[:40]:
-        plan = _plan(name)
+    for plan in list(PLANS.values())[:40]:
         par = kernel_params(plan)
         y = initial_state(plan)
         # make the ball nearly rolling: w chosen so that the slip is a tiny random vector
@@ -111,9 +103,9 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
     bounds = np.empty(6)
     n_cross = 0
     n_skipped = 0
-    names = list(SCENES)
+    plans = list(PLANS.values())
     for trial in range(600):
-        plan = _plan(names[trial % len(names)])
+        plan = plans[trial % len(plans)]
         par = kernel_params(plan)
         y = initial_state(plan)
         y[3] += rng.normal() * 0.5  # sideways motion, so y-boundaries matter
@@ -147,7 +139,7 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
             if (gm[:10] < 0.0).any():
                 crossed = True
                 break
-        may = _may_cross(g0, g1, K, h, par[P_R], PHASE_SLIDE)
+        may = _may_cross(g0, g1, K, h, par, PHASE_SLIDE)
         if crossed:
             n_cross += 1
             assert may, (trial, h, off_x, off_y)

@@ -75,6 +75,7 @@ __all__ = [
     "BowlerDelivery",
     "Vec3",
     "axis_angles_deg",
+    "hooking_delivery",
     "mirror_delivery",
     "mirror_omega",
     "omega_from_axis",
@@ -335,6 +336,20 @@ class BowlerDelivery(SpecModel):
         else:
             fields["launch_angle_deg"] = launch
         return cls.model_validate(fields)
+
+
+def hooking_delivery() -> BowlerDelivery:
+    """A right-hander's typical hooking delivery: 17 mph, 300 rpm, 45 deg axis rotation and
+    10 deg tilt, laid down on board 15 and over board 10 at the arrows (the second arrow).
+    The default of a bowler scene and the examples' and tests' reference delivery."""
+    return BowlerDelivery(
+        speed_mph=17.0,
+        rev_rate_rpm=300.0,
+        axis_rotation_deg=45.0,
+        axis_tilt_deg=10.0,
+        laydown_board=15.0,
+        target_board_at_arrows=10.0,
+    )
 
 
 def _angle_to_target_deg(

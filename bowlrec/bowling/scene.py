@@ -16,7 +16,7 @@ from bowlrec.spec import Options, Scene
 from bowlrec.spec._base import FiniteFloat, SpecModel, spec_error
 
 from .ball import BowlerBall, CenterOfMassMark, StaticWeights
-from .delivery import BowlerDelivery
+from .delivery import BowlerDelivery, hooking_delivery
 from .lane import BowlerLane
 from .layout import PAP, DualAngle, Layout, resolve_ball
 from .legality import LegalityReport, RuleSetName, check_legality, ensure_legal
@@ -79,14 +79,7 @@ class BowlerScene(SpecModel):
         description="Oil depth -> friction mapping (default: the paper's 0.04 oiled / 0.20 dry).",
     )
     delivery: BowlerDelivery = Field(
-        default_factory=lambda: BowlerDelivery(
-            speed_mph=17.0,
-            rev_rate_rpm=300.0,
-            axis_rotation_deg=45.0,
-            axis_tilt_deg=10.0,
-            laydown_board=15.0,
-            target_board_at_arrows=10.0,
-        ),  # fmt: skip
+        default_factory=hooking_delivery,
         description="The delivery as a tracking system reports it.",
     )
     options: Options = Field(default_factory=Options, description="Solver and recording.")

@@ -473,7 +473,7 @@ def _step_to(t, te, y, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient, rtol, nf
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
-def _may_cross(g0, g1, K, h, R, phase):  # type: ignore[no-untyped-def]
+def _may_cross(g0, g1, K, h, par, phase):  # type: ignore[no-untyped-def]
     """False when no event function 0..9 can change sign inside the accepted step, so the
     4-point scan of the dense output is skipped (it is then bit-identical: it would find nothing).
 
@@ -487,7 +487,8 @@ def _may_cross(g0, g1, K, h, R, phase):  # type: ignore[no-untyped-def]
         ax = max(ax, abs(K[i, 2]))
         ay = max(ay, abs(K[i, 3]))
         if phase != PHASE_ROLL:
-            sd = max(sd, abs(R * K[i, 9] - K[i, 2]) + abs(R * K[i, 8] + K[i, 3]))
+            dsx, dsy = slip(K[i], par)  # slip() is linear: applied to dy/dt it gives ds/dt
+            sd = max(sd, abs(dsx) + abs(dsy))
     cx = 0.25 * h * h * ax
     cy = 0.25 * h * h * ay
     lv = 1.5 * h * ax
@@ -548,7 +549,6 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
     event is not (t, h are its start and size, ``rc`` its dense output). Returns (code, t, h,
     facold, nsteps, nfev, uxr, uyr, best_t, best_idx, t0, h0, ux, uy): t0, h0 the start and size
     of the last accepted step, (ux, uy) the friction direction at its end."""
-    R = par[P_R]
     while True:
         if nsteps >= max_steps:
             return (ADV_MAX_STEPS, t, h, facold, nsteps, nfev, uxr, uyr, 1e300, -1, t, h, uxr, uyr)
@@ -568,7 +568,8 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
                 # direction is singular, and a step whose stages land there can miss the root
                 # (a curved approach passes beside zero). Inside the layer the slip runs straight
                 # to zero (``radial_direction``) and the root is an ordinary sign change.
-                decay = -(uxr * (R * K[0, 9] - K[0, 2]) + uyr * (-R * K[0, 8] - K[0, 3]))
+                dsx, dsy = slip(K[0], par)  # ds/dt: slip() is linear in the state
+                decay = -(uxr * dsx + uyr * dsy)
                 if decay > 0.0 and s0 > 0.5 * s_layer:
                     h_layer = (s0 - 0.25 * s_layer) / decay
                     if h > h_layer:
@@ -595,7 +596,7 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
                       gprev)  # fmt: skip
         _event_values(ynew, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold,
                       s_layer, gcur)  # fmt: skip
-        scan = phase == PHASE_LAYER or _may_cross(gprev, gcur, K, h, R, phase)
+        scan = phase == PHASE_LAYER or _may_cross(gprev, gcur, K, h, par, phase)
         if (
             scan
             or record_mode == 2

@@ -74,8 +74,8 @@ def orientation_weight(plan: Plan) -> float:
 #: its bare influence (gain 1) left the hook of offset balls 10x less accurate than that of the
 #: rest (Table III case 15: 10 mm at rtol 1e-4). Measured over the 218 benchmark deliveries,
 #: gain 10 costs the same number of right-hand sides at rtol >= 3e-5 (+1 % at 2e-6) and brings
-#: the worst hook error at rtol 3e-5 from 0.92 to 0.37 mm; gain 1000 (full weight) costs 10-20 %
-#: more for a further 2x.
+#: the worst hook error at rtol 3e-5 from 0.92 to 0.37 mm; gain 1000 (full weight) costs 4-10 %
+#: more on the mean (10-20 % on the median) for a further 1.7x (3e-5) to 6x (1e-4).
 ORIENTATION_GAIN = 10.0
 
 
