@@ -38,7 +38,7 @@ from .scenes import random_plans, table3_plans
 
 ROOT = Path(__file__).resolve().parents[1]
 
-BOWLREC_RTOLS = [1e-4, 5e-5, 3e-5, 1e-5, 3e-6, 2e-6, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
+BOWLREC_RTOLS = [2e-4, 1.5e-4, 1e-4, 5e-5, 3e-5, 1e-5, 3e-6, 2e-6, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10]
 SCIPY_RTOLS = {"RK45": [1e-5, 1e-7, 1e-9], "DOP853": [1e-5, 1e-7, 1e-9], "LSODA": [1e-6, 1e-8]}
 PAPER_DTS = [1e-3, 1e-4]
 
@@ -201,17 +201,18 @@ def _throughput(plans: list[Plan], rtol: float) -> dict[str, float]:
     run_batch(packed, parallel=False)
     out: dict[str, float] = {"rtol": rtol, "n": len(batch), "cores": os.cpu_count() or 1}
 
-    def best_rate(parallel: bool) -> float:
-        best = math.inf
+    def rates(parallel: bool) -> tuple[float, float]:
+        """Best and median rate (deliveries/s) of REPEATS_MACHINE batches."""
+        times = []
         for _ in range(REPEATS_MACHINE):
             t0 = time.perf_counter()
             run_batch(packed, parallel=parallel)
-            best = min(best, time.perf_counter() - t0)
-        return len(batch) / best
+            times.append(time.perf_counter() - t0)
+        return len(batch) / min(times), len(batch) / statistics.median(times)
 
-    out["summary_1_thread_per_s"] = best_rate(False)
+    out["summary_1_thread_per_s"], out["summary_1_thread_median_per_s"] = rates(False)
     numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
-    out["summary_all_threads_per_s"] = best_rate(True)
+    out["summary_all_threads_per_s"], out["summary_all_threads_median_per_s"] = rates(True)
     full = [replace(p, rtol=rtol) for p in plans[:50]]
     solve(full[0])  # warm up the recording path
     t0 = time.perf_counter()
@@ -353,6 +354,11 @@ def _machine_probe() -> float:
     return best
 
 
+def _median_rate(thr: dict[str, Any], which: str) -> str:
+    v = thr.get(f"summary_{which}_median_per_s")
+    return "not recorded" if v is None else f"{v:.0f}/s"
+
+
 def _targets_markdown(doc: dict[str, Any]) -> str:
     best = doc["fastest_bowlrec_meeting_targets"]
     thr = doc["throughput"]
@@ -376,8 +382,10 @@ def _targets_markdown(doc: dict[str, Any]) -> str:
         ),
         (
             "batch, summary only: >= 30,000 deliveries/s on all cores at hook <= 1 mm",
-            f"{thr['summary_all_threads_per_s']:.0f}/s on {thr['cores']} cores "
-            f"({thr['summary_1_thread_per_s']:.0f}/s on 1; rtol {thr['rtol']:g})",
+            f"{thr['summary_all_threads_per_s']:.0f}/s on {thr['cores']} cores, best of "
+            f"{REPEATS_MACHINE} batches (median {_median_rate(thr, 'all_threads')}); "
+            f"{thr['summary_1_thread_per_s']:.0f}/s on 1 (median "
+            f"{_median_rate(thr, '1_thread')}); rtol {thr['rtol']:g}",
             thr["summary_all_threads_per_s"] >= 30000.0,
         ),
         (
@@ -463,8 +471,14 @@ def _remeasure(out: Path, update_readme: bool) -> int:
     probe["before_throughput_s"] = _machine_probe()
     old_thr = doc["throughput"]
     new_thr = _throughput([p for _, p in plans], old_thr["rtol"])
-    # the best of the runs: rates (per s) the highest, start-up times the lowest
-    doc["throughput"] = {k: max(v, old_thr.get(k, v)) for k, v in new_thr.items()}
+    # the best of the runs: the throughput of the pass with the highest all-core rate (its
+    # medians and single-thread rate with it), start-up times the lowest
+    best_old = old_thr["summary_all_threads_per_s"]
+    if (
+        new_thr["summary_all_threads_per_s"] > best_old
+        or "summary_all_threads_median_per_s" not in old_thr
+    ):
+        doc["throughput"] = new_thr
     old_start = doc["startup"]
     doc["startup"] = {k: min(v, old_start.get(k, v)) for k, v in _startup().items()}
     probe["at_end_s"] = _machine_probe()

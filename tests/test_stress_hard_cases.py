@@ -484,8 +484,9 @@ def test_sliding_friction_never_does_positive_work() -> None:
     -F.s is <= 0 on every sliding sample (allowing 1e-9 W of rounding: |F| ~ 20 N).
 
     Excluded, with reasons: (a) samples taken exactly at an event instant before the event is
-    applied (the step redone to the located root may end a hair past the slide->roll root,
-    where the smooth continuation of the friction direction used to find the root points back);
+    applied (the state taken from the dense output at the located root may lie a hair past the
+    slide->roll root, where the smooth continuation of the friction direction used to find the
+    root points back);
     (b) slips below 1e-6 m/s, the integrator's noise floor at the default tolerance, whose
     direction is not defined. Everywhere else the direction must be Coulomb's."""
     for d in ANTI_COULOMB:
@@ -573,10 +574,10 @@ def test_slide_converges_at_tight_tolerances() -> None:
     v0 s_layer / (mu_min g): 2.4e-8 m / 7.6e-8 m / 7.6e-8 m at rtol 1e-12 for these balls.
 
     These balls used to report the slide->roll point late by 5.5e-7 m to 2.7e-3 m (a strict
-    xfail until session 3). Fixed together with the loose-tolerance slide errors: the step
-    redone to an event time has its error checked (``integrator._step_to``), steps aim at the
-    slip layer instead of across |s| = 0, and inside the layer the slip runs straight to zero
-    (``dynamics.radial_direction``)."""
+    xfail until session 3). Fixed together with the loose-tolerance slide errors: steps aim at
+    the slip layer instead of across |s| = 0, and inside the layer the slip runs straight to zero
+    (``dynamics.radial_direction``). (Session 3 also error-checked the step redone to an event
+    time; since session 4 the state at an event comes from the dense output, with no redo.)"""
 
     def slide(d: dict[str, Any], rtol: float) -> float:
         d = json.loads(json.dumps(d))
