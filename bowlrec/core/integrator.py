@@ -189,6 +189,14 @@ def _stages(t, y, h, K, ytmp, ynew, par, phase, mu, uxr, uyr, orient):  # type: 
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _embedded_error(K, h, i):  # type: ignore[no-untyped-def]
+    """Component i of the embedded (5th - 4th order) error estimate of a step of size h."""
+    return h * (
+        E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
+    )
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
     """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component.
 
@@ -196,31 +204,17 @@ def _error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
     ``solver.orientation_weight``. (Three loops in component order, so the sum is the same.)"""
     acc = 0.0
     for i in range(4):
-        e = h * (
-            E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
-        )
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
-        acc += (e / sc) ** 2
+        acc += (_embedded_error(K, h, i) / sc) ** 2
     cnt = 7
     if q_weight != 0.0:
         cnt = 11
         for i in range(4, 8):
-            e = h * (
-                E1 * K[0, i]
-                + E3 * K[2, i]
-                + E4 * K[3, i]
-                + E5 * K[4, i]
-                + E6 * K[5, i]
-                + E7 * K[6, i]
-            )
             sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
-            acc += (q_weight * e / sc) ** 2
+            acc += (q_weight * _embedded_error(K, h, i) / sc) ** 2
     for i in range(8, N_STATE):
-        e = h * (
-            E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
-        )
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
-        acc += (e / sc) ** 2
+        acc += (_embedded_error(K, h, i) / sc) ** 2
     return math.sqrt(acc / cnt)
 
 
@@ -438,6 +432,14 @@ def _apply_impulse(y, par, jx, jy):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _normalize_quaternion(y):  # type: ignore[no-untyped-def]
+    """Scale the quaternion y[4:8] to unit length (in place)."""
+    qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
+    for i in range(4, 8):
+        y[i] /= qn
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _may_cross(g0, g1, K, h, par, phase):  # type: ignore[no-untyped-def]
     """False when no event function 0..9 can change sign inside the accepted step, so the
     4-point scan of the dense output is skipped (it is then bit-identical: it would find nothing).
@@ -554,17 +556,19 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
         err = _error_norm(y, ynew, K, h, rtol, par[P_QWEIGHT])
         if not (err <= 1.0):
             # reject: h * (0.9 / err)^(1/5), at most 10x smaller ...
-            hn = h / min(10.0, math.exp(0.2 * math.log(err)) / 0.9) if err == err else 0.1 * h
-            if nrej > 0 and err == err:
-                # ... unless the last rejection showed the error falling slower than h^5 (near
-                # the kink of a restarting slip it falls ~ h^1): cut at the observed order
-                if err < err_rej and h < h_rej:
+            if err != err:
+                hn = 0.1 * h
+            else:
+                hn = h / min(10.0, math.exp(0.2 * math.log(err)) / 0.9)
+                if nrej > 0 and not (err < err_rej and h < h_rej):
+                    hn = min(hn, 0.2 * h)  # ... 5x at least if the error did not fall ...
+                elif nrej > 0:
+                    # ... and if it fell slower than h^5 (near the kink of a restarting slip it
+                    # falls ~ h^1), cut at the order the last two rejections showed
                     p_eff = math.log(err_rej / err) / math.log(h_rej / h)
                     if p_eff < 4.0:
                         p_eff = max(p_eff, 0.5)
                         hn = min(hn, max(h * (0.8 / err) ** (1.0 / p_eff), 0.1 * h))
-                else:
-                    hn = min(hn, 0.2 * h)
             err_rej = err
             h_rej = h
             nrej += 1
@@ -579,12 +583,9 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
         _event_values(ynew, par, phase, mu, uxr, uyr, bounds, slide_mode, slip_threshold,
                       s_layer, gcur)  # fmt: skip
         scan = phase == PHASE_LAYER or _may_cross(gprev, gcur, K, h, par, phase)
-        if (
-            scan
-            or record_mode == 2
-            or st[0] <= 0.0
-            or (phase == PHASE_ROLL and st[1] < -margin_tol)
-        ):
+        # the normal force or (rolling) the friction reserve fell below zero at some stage
+        dynamic = st[0] <= 0.0 or (phase == PHASE_ROLL and st[1] < -margin_tol)
+        if scan or dynamic or record_mode == 2:
             _dense_coeffs(y, ynew, K, h, rc)
         ta = t
         for j in range(1, N_SUB + 1 if scan else 1):
@@ -610,7 +611,7 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
                 gprev[idx] = gcur[idx]
             ta = tj
         # dynamic events: friction reserve (rolling) and contact
-        if st[0] <= 0.0 or (phase == PHASE_ROLL and st[1] < -margin_tol):
+        if dynamic:
             m_prev, n_prev = _dynamic_values(y, par, phase, mu, uxr, uyr, orient, dtmp)
             ta = t
             t_hi = best_t if best_idx >= 0 else t + h
@@ -651,9 +652,7 @@ def _advance(y, K, ytmp, ynew, ybuf, dtmp, rc, gv, gprev, gcur, bounds, par, pha
             K[0, i] = K[6, i]
         t = t + h
         if orient:
-            qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
-            for i in range(4, 8):
-                y[i] /= qn
+            _normalize_quaternion(y)
         # PI control: h * 0.9 err^-0.2 errold^0.08 within [h / 5, 10 h] (Hairer's DOPRI5; one
         # exp and one log instead of two powers), and no growth right after a rejection
         lerr = math.log(max(err, 1e-300))
@@ -793,9 +792,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
             _dense(rc, (best_t - t) / h, y)
         t = best_t
         if orient:
-            qn = math.sqrt(y[4] ** 2 + y[5] ** 2 + y[6] ** 2 + y[7] ** 2)
-            for i in range(4, 8):
-                y[i] /= qn
+            _normalize_quaternion(y)
         phase_before = phase
         lfacold = LOG_1E_4
         n_transitions += 1
