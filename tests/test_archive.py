@@ -1,5 +1,6 @@
-"""HDF5 run files and the archive: round trips, content IDs, queries, the ball library,
-durability under kill -9, and the committed format fixture."""
+"""HDF5 run files, segments and the archive: round trips, content IDs, queries, the ball
+library, tombstones and compaction, durability under kill -9, and the committed fixtures (format
+1.0, migrated; format 2.0, read as is). Fault injection is in test_archive_faults.py."""
 
 from __future__ import annotations
 
@@ -16,7 +17,15 @@ import h5py
 import numpy as np
 import pytest
 
-from bowlrec.archive import Archive, ArchiveError, BallNotFoundError, RunNotFoundError, run_id
+from bowlrec.archive import (
+    Archive,
+    ArchiveError,
+    BallNotFoundError,
+    RunDamagedError,
+    RunNotFoundError,
+    SegmentFile,
+    run_id,
+)
 from bowlrec.archive.index import IndexError_
 from bowlrec.paper import paper_scene
 from bowlrec.sinks import RunData
@@ -31,6 +40,7 @@ from bowlrec.spec import Scene
 
 HERE = Path(__file__).parent
 FIXTURE = HERE / "fixtures" / "archive-v1"
+FIXTURE_V2 = HERE / "fixtures" / "archive-v2"
 
 
 def _scene(**delivery: float) -> Scene:
@@ -151,7 +161,7 @@ def test_simulating_the_same_scene_twice_stores_one_run(tmp_path: Path) -> None:
     assert first.added and not again.added
     assert first.run_id == again.run_id == run_id(_scene().resolve())
     assert len(archive) == 1
-    assert len(list((tmp_path / "a" / "runs").glob("*/*.h5"))) == 1
+    assert len(list((tmp_path / "a" / "segments").glob("*.h5"))) == 1
     assert again.trajectory is not None and first.trajectory is not None
     _assert_same_trajectory(again.trajectory, first.trajectory)
 
@@ -358,41 +368,209 @@ def test_kill_9_mid_write_loses_at_most_the_run_being_written(
     assert len(reported) > kills  # the writer got real work done between kills
     assert mid_write >= kills // 4  # and most kills landed inside a file write
     archive = Archive(archive_dir, create=False)
-    archive.repair()
+    report = archive.repair(min_age_s=0)
+    assert report["damaged_runs"] == [] and report["index_rows_fixed"] == 0
     assert not list(archive_dir.rglob("*.part"))
-    files = {p.stem for p in (archive_dir / "runs").glob("*/*.h5")}
-    assert files == {r["run_id"] for r in archive.list_runs()}
-    for rid in files:
-        read_run_header(archive.run_path(rid))
+    stored: set[str] = set()
+    for path in (archive_dir / "segments").glob("*.h5"):
+        with SegmentFile(path) as seg:
+            stored.update(seg.run_ids())
+    assert stored == {r["run_id"] for r in archive.list_runs()}
 
 
-# -- committed fixture -----------------------------------------------------------------------------
+# -- segments, tombstones, compaction ---------------------------------------------------------
 
 
-def test_committed_fixture_archive_still_reads(tmp_path: Path) -> None:
-    """tests/fixtures/archive-v1 was written by format 1.0 (tests/fixtures/make_fixture.py).
+def test_segment_layout_units_compression_and_libver(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    builder = archive.builder()
+    summary_scene = Scene.model_validate({"options": {"record": "summary"}})
+    import bowlrec
 
-    If this fails, the on-disk format changed: bump FORMAT_VERSION, document the change in
-    docs/archive-format.md and keep reading the old version, or decide to drop it explicitly.
-    """
+    for scene in (_scene(), summary_scene):
+        plan = scene.resolve()
+        run = RunData(scene, plan, bowlrec.simulate(scene), run_id(plan))
+        builder.append(archive.record(run, wall_time_s=0.1, solver="integrator"))
+    info = archive.seal(builder)
+    seen: list[str] = []
+
+    def visit(name: str, obj: object) -> None:
+        if isinstance(obj, h5py.Dataset):
+            seen.append(name)
+            assert "units" in obj.attrs, name
+            if obj.size > 0:
+                assert obj.compression == "gzip" and obj.shuffle, name
+
+    with h5py.File(info.path, "r") as f:
+        f.visititems(visit)
+        assert f.attrs["format"] == "bowlrec-segment" and f.attrs["format_version"] == "2.0"
+        assert f.attrs["n_runs"] == 2 and f.attrs["physics_version"]
+        assert f["trajectory/position_m"].attrs["units"] == "m"
+        assert f["summary/hook_m"].attrs["units"] == "m"
+        assert f["runs/created_at_ns"].attrs["units"] == "ns"
+        assert f["torques/tau_dev"].attrs["units"] == "N m"
+        offsets = f["trajectory/offsets"][()]
+        assert offsets[0] == 0 and offsets[2] == offsets[1]  # the summary-only run: no samples
+        # default libver: readable by HDF5 1.10-era tools (superblock v0)
+        assert f.id.get_access_plist().get_libver_bounds()[0] == h5py.h5f.LIBVER_EARLIEST
+    assert len(seen) > 30
+    added, shadowed = archive.register([info])
+    assert (added, shadowed) == (2, 0)
+    assert archive.register([info]) == (2, 0)  # registering again changes nothing
+    assert len(archive) == 2
+
+
+def test_a_run_stored_twice_is_listed_once_and_survives_the_removal_of_neither(
+    tmp_path: Path, template_run: RunData
+) -> None:
+    archive = Archive(tmp_path / "a")
+    segments = []
+    for _ in range(2):  # two writers that simulated the same scene
+        builder = archive.builder()
+        builder.append(archive.record(template_run_with_id(template_run), wall_time_s=0.0))
+        segments.append(archive.seal(builder))
+    assert archive.register(segments) == (1, 1)
+    assert len(archive) == 1 and archive.info()["duplicate_copies"] == 1
+    archive.remove("ab" * 10)
+    assert len(archive) == 0
+    assert archive.reindex() == 0  # neither copy comes back from the files
+
+
+def template_run_with_id(run: RunData, rid: str = "ab" * 10) -> RunData:
+    return RunData(run.scene, run.plan, run.trajectory, rid)
+
+
+def test_removed_runs_stay_removed_and_compaction_reclaims_them(
+    tmp_path: Path, template_run: RunData
+) -> None:
+    archive = Archive(tmp_path / "a")
+    ids = [f"{i:020x}" for i in range(6)]
+    for rid in ids:  # six one-run segments, as interactive use makes them
+        archive.add(template_run_with_id(template_run, rid), wall_time_s=0.0)
+    archive.remove(ids[0])
+    archive.remove(ids[1])
+    assert archive.reindex() == 4
+    assert {r["run_id"] for r in archive.list_runs()} == set(ids[2:])
+    report = archive.compact()
+    assert report["segments_rewritten"] == 6 and report["segments_written"] == 1
+    assert report["runs_moved"] == 4 and report["tombstone_files_deleted"] == 2
+    assert len(list((tmp_path / "a" / "segments").glob("*.h5"))) == 1
+    assert not list((tmp_path / "a" / "tombstones").glob("*.json"))
+    assert archive.reindex() == 4
+    for rid in ids[2:]:
+        _assert_same_trajectory(archive.load(rid).trajectory, template_run.trajectory)
+    # a removed run simulated again is stored again
+    archive.add(template_run_with_id(template_run, ids[0]), wall_time_s=0.0)
+    assert archive.reindex() == 5
+
+
+def test_a_changed_summary_value_is_detected_by_its_digest(
+    tmp_path: Path, template_run: RunData
+) -> None:
+    archive = Archive(tmp_path / "a")
+    builder = archive.builder()
+    for i in range(3):
+        run = template_run_with_id(template_run, f"{i:020x}")
+        builder.append(archive.record(run, wall_time_s=0))
+    info = archive.seal(builder)
+    archive.register([info])
+    with h5py.File(info.path, "r+") as f:  # what a bit flip or a careless edit does
+        hooks = f["summary/hook_m"][()]
+        hooks[1] += 1e-9
+        f["summary/hook_m"][...] = hooks
+    archive.load(f"{0:020x}")
+    with pytest.raises(RunDamagedError, match=f"run {1:020x} in segment {info.segment_id}"):
+        archive.load(f"{1:020x}")
+    report = archive.repair()
+    assert [d["run_id"] for d in report["damaged_runs"]] == [f"{1:020x}"]
+    assert report["quarantined_segments"] == [info.segment_id]
+    assert [d["run_id"] for d in archive.damaged()] == [f"{1:020x}"]
+    for i in (0, 2):  # the healthy runs of the damaged segment were kept
+        _assert_same_trajectory(archive.load(f"{i:020x}").trajectory, template_run.trajectory)
+    assert (tmp_path / "a" / "quarantine" / f"{info.segment_id}.h5").exists()
+    assert archive.reindex() == 2 and len(archive.damaged()) == 1
+
+
+def test_bowler_preset_runs_are_indexed_by_their_pattern(tmp_path: Path) -> None:
+    from bowlrec.bowling.scene import BowlerScene
+
+    archive = Archive(tmp_path / "a")
+    bowler = BowlerScene(pattern="kegel_chromium_6742", options={"record": "summary"})
+    scene = bowler.to_scene()
+    rid = archive.simulate(scene).run_id
+    assert run_id(scene.resolve()) == run_id(
+        scene.model_copy(
+            update={
+                "lane": scene.lane.model_copy(
+                    update={"friction": scene.lane.friction.model_copy(update={"pattern": None})}
+                )
+            }
+        ).resolve()
+    )  # the pattern name is a label: it does not change the run ID
+    assert [r["run_id"] for r in archive.list_runs(pattern="kegel_chromium_6742")] == [rid]
+    assert archive.list_runs(pattern="grid") == []
+
+
+# -- committed fixtures --------------------------------------------------------------------------
+
+
+def test_committed_v1_fixture_archive_migrates_to_v2(tmp_path: Path) -> None:
+    """tests/fixtures/archive-v1 was written by format 1.0; ``bowlrec archive migrate``
+    converts it: same run IDs, same bytes, the ball library kept, the 1.0 files kept aside."""
     import shutil
 
-    copy = shutil.copytree(FIXTURE, tmp_path / "archive")  # reading must not touch the repo
+    from bowlrec.archive.migrate import migrate
+    from bowlrec.sinks.hdf5_run import read_run_file
+
+    copy = shutil.copytree(FIXTURE, tmp_path / "archive")  # migrating must not touch the repo
+    with pytest.raises(ArchiveError, match="bowlrec archive migrate"):
+        Archive(copy, create=False)
+    report = migrate(copy)
+    assert (report["runs"], report["balls"], report["unreadable_run_files"]) == (2, 1, [])
     archive = Archive(copy, create=False)
     rows = archive.list_runs(order_by="name")
     assert [r["name"] for r in rows] == ["fixture-summary", "fixture-trajectory"]
     assert [e.ref for e in archive.balls.list(all_versions=True)] == ["fixture-ball@1"]
     for row in rows:
+        old = read_run_file(next((copy / "v1-archive" / "runs").glob(f"*/{row['run_id']}.h5")))
+        new = archive.load(row["run_id"])
+        assert new.scene == old.scene and new.ball_ref == "fixture-ball@1"
+        assert new.attrs["physics_version"] == old.attrs["physics_version"]
+        assert new.attrs["created_at"] == old.attrs["created_at"]
+        _assert_same_trajectory(new.trajectory, old.trajectory)
+        # re-running the same scene finds the migrated run: no duplicate
+        again = archive.simulate(old.scene)
+        assert again.run_id == row["run_id"] or again.added  # a new physics version, new ID
+    assert migrate(copy)["already"] == "2.0"
+
+
+def test_committed_v2_fixture_archive_still_reads(tmp_path: Path) -> None:
+    """tests/fixtures/archive-v2 was written by format 2.0 (tests/fixtures/make_fixture.py).
+
+    If this fails, the on-disk format changed: bump the segment or archive format version,
+    document the change in docs/archive-format.md and keep reading the old version (or decide
+    to migrate it), never by accident.
+    """
+    import shutil
+
+    import bowlrec
+
+    copy = shutil.copytree(FIXTURE_V2, tmp_path / "archive")
+    assert not (copy / "index.sqlite").exists()  # the index is derived: built from the files
+    archive = Archive(copy, create=False)
+    rows = archive.list_runs(order_by="name")
+    assert [r["name"] for r in rows] == ["fixture-summary", "fixture-trajectory"]
+    assert [e.ref for e in archive.balls.list(all_versions=True)] == ["fixture-ball@1"]
+    assert archive.repair()["damaged_runs"] == []
+    for row in rows:
         stored = archive.load(row["run_id"])
-        assert stored.attrs["format"] == "bowlrec-run"
-        assert stored.attrs["format_version"] == "1.0"
+        assert stored.attrs["format"] == "bowlrec-segment"
+        assert stored.attrs["format_version"] == "2.0"
         assert stored.ball_ref == "fixture-ball@1"
         assert stored.trajectory.summary.outcome == row["outcome"] == "pins"
         assert stored.trajectory.summary.hook_m == row["hook_m"]
         # the stored physics still agrees with today's kernel (tolerance: 1e-6 m of hook, far
         # above the 1e-9 rtol and far below any physical change)
-        import bowlrec
-
         again = bowlrec.simulate(stored.scene)
         assert again.summary.hook_m == pytest.approx(row["hook_m"], abs=1e-6)
     traj = archive.load(rows[1]["run_id"]).trajectory

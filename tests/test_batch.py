@@ -355,20 +355,31 @@ def _start_batch(job: Path, archive: Path, out: Path) -> subprocess.Popen[bytes]
     )
 
 
+def _stored_runs(archive: Path) -> set[str]:
+    """Run IDs in the archive's sealed segment files (registered or not)."""
+    from bowlrec.archive import SegmentFile
+
+    ids: set[str] = set()
+    for path in (archive / "segments").glob("*.h5"):
+        with SegmentFile(path) as seg:
+            ids.update(seg.run_ids())
+    return ids
+
+
 def _wait_for_runs(archive: Path, n: int, proc: subprocess.Popen[bytes]) -> None:
     deadline = time.monotonic() + 90
-    while len(list((archive / "runs").glob("*/*.h5"))) < n:
+    while len(_stored_runs(archive)) < n:
         assert proc.poll() is None, proc.stderr.read().decode() if proc.stderr else ""
         assert time.monotonic() < deadline, "the batch made no progress"
         time.sleep(0.05)
 
 
 def _assert_consistent(archive_dir: Path, killed: bool = False) -> set[str]:
-    """Every indexed run has its complete file; only a killed writer may leave a temporary
-    (hidden, removed by the next writer) or a file not yet indexed."""
+    """Every indexed run is in a sealed segment; only a killed writer may leave a temporary
+    (hidden, removed by the next writer) or a segment not yet registered."""
+    parts = list((archive_dir / "segments").glob(".*.part"))
+    files = _stored_runs(archive_dir)
     archive = Archive(archive_dir)
-    files = {p.stem for p in (archive_dir / "runs").glob("*/*.h5")}
-    parts = list((archive_dir / "runs").glob("*/.*.part"))
     assert len(parts) <= (1 if killed else 0)
     indexed = {r["run_id"] for r in archive.list_runs()}
     assert indexed <= files and (killed or indexed == files)
@@ -376,7 +387,9 @@ def _assert_consistent(archive_dir: Path, killed: bool = False) -> set[str]:
 
 
 def test_killed_batch_resumes_without_losing_runs(tmp_path: Path) -> None:
-    job = _write_job(tmp_path, 40)
+    # runs are sealed in segments every second: the job lasts several seconds, so the kill
+    # lands after some segments were sealed and before the last one
+    job = _write_job(tmp_path, 3000)
     expected = {p.run_id for p in prepare_runs(load_job(job))}
     archive = tmp_path / "a"
     proc = _start_batch(job, archive, tmp_path / "t1")
@@ -384,7 +397,7 @@ def test_killed_batch_resumes_without_losing_runs(tmp_path: Path) -> None:
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
     before = _assert_consistent(archive, killed=True)
-    assert 5 <= len(before) < 40 and before <= expected
+    assert 5 <= len(before) < 3000 and before <= expected
 
     proc = _start_batch(job, archive, tmp_path / "t2")
     _, err = proc.communicate(timeout=120)
@@ -397,11 +410,13 @@ def test_killed_batch_resumes_without_losing_runs(tmp_path: Path) -> None:
     final = Archive(archive)
     assert {r["run_id"] for r in final.list_runs()} == expected
     assert _assert_consistent(archive) == expected
-    assert final.repair() == {"temporaries_removed": 0, "runs_indexed": 0, "rows_dropped": 0}
+    report = final.repair()
+    assert report["damaged_runs"] == [] and report["index_rows_fixed"] == 0
+    assert (report["temporaries_removed"], report["segments_registered"]) == (0, 0)
 
 
 def test_ctrl_c_stops_cleanly_with_exit_130(tmp_path: Path) -> None:
-    job = _write_job(tmp_path, 400)
+    job = _write_job(tmp_path, 3000)  # seconds of work: Ctrl-C lands mid-batch
     archive = tmp_path / "a"
     proc = _start_batch(job, archive, tmp_path / "t")
     _wait_for_runs(archive, 3, proc)
@@ -413,9 +428,9 @@ def test_ctrl_c_stops_cleanly_with_exit_130(tmp_path: Path) -> None:
     assert {r["run_id"] for r in Archive(archive).list_runs()} == files
     with open(tmp_path / "t.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
-    assert len(rows) == 400
+    assert len(rows) == 3000
     assert {r["run_id"] for r in rows if r["status"] == "ok"} == files
-    assert sum(r["status"] == "cancelled" for r in rows) == 400 - len(files)
+    assert sum(r["status"] == "cancelled" for r in rows) == 3000 - len(files)
 
 
 def test_cli_reports_an_invalid_job(tmp_path: Path) -> None:

@@ -401,7 +401,9 @@ def test_concurrent_clients_every_run_accounted_for(tmp_path: Path) -> None:
     assert listed == distinct_ids and len(distinct_ids) == len(ids_by_scene)
     assert sum(added for _, _, added in seen) == len(distinct_ids)  # each added exactly once
     archive = Archive(tmp_path / "archive", create=False)
-    assert archive.repair() == {"temporaries_removed": 0, "runs_indexed": 0, "rows_dropped": 0}
+    report = archive.repair()
+    assert report["damaged_runs"] == [] and report["index_rows_fixed"] == 0
+    assert (report["temporaries_removed"], report["segments_registered"]) == (0, 0)
     assert {r["run_id"] for r in archive.list_runs()} == distinct_ids
 
 
@@ -411,7 +413,8 @@ def test_concurrent_clients_every_run_accounted_for(tmp_path: Path) -> None:
 def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Path) -> None:
     archive_dir = tmp_path / "archive"
     srv = start_server(archive_dir)
-    scenes = [summary_scene(i, "killed") for i in range(5000, 5080)]
+    # a job long enough (seconds) that the kill lands between two sealed segments
+    scenes = [summary_scene(i, "killed") for i in range(5000, 7000)]
     try:
         with srv.client() as client:
             job_id = client.post("/jobs", json={"scenes": scenes}).json()["job_id"]
@@ -433,12 +436,12 @@ def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Pat
             assert after["status"] == "interrupted" and after["resumable"] is True
             archived = [rid for rid in after["run_ids"] if rid in listed]
             assert after["done"] == len(archived) >= len(before)
-            assert after["done"] < after["total"] == 80
+            assert after["done"] < after["total"] == 2000
 
             resumed = client.post(f"/jobs/{job_id}/resume")
             assert resumed.status_code == 202 and resumed.json()["status"] == "queued"
             final = _wait_job(client, job_id, {"done"})
-            assert (final["done"], final["failed"]) == (80, 0)
+            assert (final["done"], final["failed"]) == (2000, 0)
             assert final["skipped"] == after["done"]  # archived runs were not simulated again
             listed = {r["run_id"] for r in client.get("/runs").json()["runs"]}
             assert listed == set(final["run_ids"])
@@ -446,7 +449,7 @@ def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Pat
         srv.stop()
     archive = Archive(archive_dir, create=False)
     repaired = archive.repair()
-    assert repaired["rows_dropped"] == 0 and len(archive) == 80
+    assert repaired["damaged_runs"] == [] and len(archive) == 2000
 
 
 def test_second_server_on_the_same_archive_is_refused(server: Server) -> None:

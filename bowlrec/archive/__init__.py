@@ -1,4 +1,5 @@
-"""Trajectory archives: runs as HDF5 files, an SQLite index and a versioned ball-spec library.
+"""Trajectory archives (format 2.0): runs in sealed segment files, a derived SQLite index, a
+versioned ball-spec library, tombstones, quarantine and repair.
 
 See docs/archive-format.md for the on-disk format and :class:`Archive` for the API.
 """
@@ -7,18 +8,36 @@ from .balls import BallEntry, BallLibrary, BallNotFoundError, ball_sha, parse_ba
 from .index import Filter
 from .location import default_archive_path
 from .run_id import run_id
-from .store import ARCHIVE_FORMAT, AddResult, Archive, ArchiveError, RunNotFoundError
+from .segment import RunRecord, SegmentBuilder, SegmentInfo
+from .segment_file import RunDamagedError, SegmentError, SegmentFile
+from .store import (
+    ARCHIVE_FORMAT,
+    ARCHIVE_FORMAT_VERSION,
+    AddResult,
+    Archive,
+    ArchiveError,
+    ArchiveWriteError,
+    RunNotFoundError,
+)
 
 __all__ = [
     "ARCHIVE_FORMAT",
+    "ARCHIVE_FORMAT_VERSION",
     "AddResult",
     "Archive",
     "ArchiveError",
+    "ArchiveWriteError",
     "BallEntry",
     "BallLibrary",
     "BallNotFoundError",
     "Filter",
+    "RunDamagedError",
     "RunNotFoundError",
+    "RunRecord",
+    "SegmentBuilder",
+    "SegmentError",
+    "SegmentFile",
+    "SegmentInfo",
     "ball_sha",
     "default_archive_path",
     "parse_ball_ref",

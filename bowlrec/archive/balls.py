@@ -4,10 +4,11 @@ An entry is a physical ball (:class:`~bowlrec.spec.Ball`: SI, principal axes and
 lane frame at release) or a spec sheet in bowlers' units
 (:class:`~bowlrec.bowling.ball.BowlerBall`, placed on the lane by a bowler scene's layout).
 
-Adding a spec under a name that already has an identical latest spec is a no-op (same version);
-a changed spec becomes the next version and the old versions stay. Runs reference the library
-entry they used as ``name@version``. Export/import is a JSON document (format
-``bowlrec-ball-library``) holding every version.
+Each version is one JSON file in the archive (``balls/<name>/<version>.json``, the source of
+truth); the index lists them. Adding a spec under a name that already has an identical latest
+spec is a no-op (same version); a changed spec becomes the next version and the old versions
+stay. Runs reference the library entry they used as ``name@version``. Export/import is a JSON
+document (format ``bowlrec-ball-library``) holding every version.
 """
 
 from __future__ import annotations
@@ -21,11 +22,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .index import connect
+from .index import transaction
 
 if TYPE_CHECKING:
     from bowlrec.bowling.ball import BowlerBall
     from bowlrec.spec import Ball
+
+    from .store import Archive
 
     #: a library entry holds a physical ball (SI, lane frame at release) or a spec sheet
     AnyBall = Ball | BowlerBall
@@ -41,6 +44,8 @@ __all__ = [
 
 LIBRARY_FORMAT = "bowlrec-ball-library"
 LIBRARY_FORMAT_VERSION = 1
+#: format marker of one library entry's file (``balls/<name>/<version>.json``)
+BALL_FILE_FORMAT = "bowlrec-ball"
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 ._+\-]{0,99}$")
 
 
@@ -115,11 +120,40 @@ def _entry(row: Any) -> BallEntry:
     )
 
 
-class BallLibrary:
-    """Versioned ball specs stored in the archive's index database (table ``balls``)."""
+def ball_file_row(path: Path) -> tuple[str, int, str, str, str, str]:
+    """(name, version, sha, spec_json, added_at, note) of a ball file, for the index."""
+    doc = json.loads(path.read_text())
+    if doc.get("format") != BALL_FILE_FORMAT:
+        raise ValueError(f"{path}: not a bowlrec ball file (format = {doc.get('format')!r})")
+    spec = parse_ball(doc["spec"])
+    return (
+        str(doc["name"]),
+        int(doc["version"]),
+        ball_sha(spec),
+        spec.model_dump_json(),
+        str(doc["added_at"]),
+        str(doc.get("note", "")),
+    )
 
-    def __init__(self, index_path: Path) -> None:
-        self.index_path = index_path
+
+class BallLibrary:
+    """Versioned ball specs of an archive.
+
+    Each version is a file ``balls/<name>/<version>.json`` (written once, atomically); the
+    index's ``balls`` table is derived from these files and answers the queries.
+    """
+
+    def __init__(self, archive: Archive) -> None:
+        self.archive = archive
+
+    def _dir(self, name: str) -> Path:
+        return self.archive.balls_dir / name
+
+    def _versions_on_disk(self, name: str) -> builtins.list[int]:
+        d = self._dir(name)
+        if not d.is_dir():
+            return []
+        return sorted(int(p.stem) for p in d.glob("*.json") if p.stem.isdigit())
 
     def add(self, name: str, ball: AnyBall, note: str = "") -> tuple[BallEntry, bool]:
         """Store ``ball`` under ``name``; returns (entry, True if a new version was created)."""
@@ -129,70 +163,96 @@ class BallLibrary:
                 "(starting with a letter or digit; '@' separates the version)"
             )
         sha = ball_sha(ball)
-        with connect(self.index_path) as con:
-            latest = con.execute(
+        with self.archive.writer_lock():
+            con = self.archive.index_writer()
+            rows = con.execute(
                 "SELECT * FROM balls WHERE name = ? ORDER BY version DESC LIMIT 1", (name,)
-            ).fetchone()
+            ).fetchall()
+            latest = rows[0] if rows else None
             if latest is not None and latest["sha"] == sha:
                 return _entry(latest), False
-            version = 1 if latest is None else int(latest["version"]) + 1
+            on_disk = self._versions_on_disk(name)
+            version = 1 + max([0, *on_disk] + ([] if latest is None else [int(latest["version"])]))
             added_at = datetime.now(UTC).isoformat(timespec="seconds")
-            con.execute(
-                "INSERT INTO balls (name, version, sha, spec_json, added_at, note) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
-                (name, version, sha, ball.model_dump_json(), added_at, note),
-            )
+            doc = {
+                "format": BALL_FILE_FORMAT,
+                "name": name,
+                "version": version,
+                "added_at": added_at,
+                "note": note,
+                "spec": ball.model_dump(mode="json"),
+            }
+            from bowlrec.sinks.atomic import atomic_path
+
+            with atomic_path(self._dir(name) / f"{version}.json", hold_lock=True) as tmp:
+                tmp.write_text(json.dumps(doc, indent=1) + "\n")
+            with transaction(con, write=True):
+                con.execute(
+                    "INSERT OR REPLACE INTO balls (name, version, sha, spec_json, added_at, note) "
+                    "VALUES (?, ?, ?, ?, ?, ?)",
+                    (name, version, sha, ball.model_dump_json(), added_at, note),
+                )
         return BallEntry(name, version, sha, ball, added_at, note), True
+
+    def _query(self, sql: str, params: tuple[Any, ...] = ()) -> builtins.list[Any]:
+        return self.archive.index_reader().execute(sql, params).fetchall()
 
     def get(self, ref: str) -> BallEntry:
         """The entry for ``name`` (latest version) or ``name@version``."""
         name, version = parse_ball_ref(ref)
-        with connect(self.index_path) as con:
-            if version is None:
-                row = con.execute(
-                    "SELECT * FROM balls WHERE name = ? ORDER BY version DESC LIMIT 1", (name,)
-                ).fetchone()
-            else:
-                row = con.execute(
-                    "SELECT * FROM balls WHERE name = ? AND version = ?", (name, version)
-                ).fetchone()
-        if row is None:
+        if version is None:
+            rows = self._query(
+                "SELECT * FROM balls WHERE name = ? ORDER BY version DESC LIMIT 1", (name,)
+            )
+        else:
+            rows = self._query(
+                "SELECT * FROM balls WHERE name = ? AND version = ?", (name, version)
+            )
+        if not rows:
             known = ", ".join(sorted({e.name for e in self.list()})) or "none"
             raise BallNotFoundError(f"no ball {ref!r} in the library (balls: {known})")
-        return _entry(row)
+        return _entry(rows[0])
 
-    def list(self, name: str | None = None, all_versions: bool = False) -> list[BallEntry]:
+    def list(self, name: str | None = None, all_versions: bool = False) -> builtins.list[BallEntry]:
         """Entries sorted by name and version; only the latest per name unless ``all_versions``."""
         sql = "SELECT * FROM balls"
         params: tuple[Any, ...] = ()
         if name is not None:
             sql += " WHERE name = ?"
             params = (name,)
-        with connect(self.index_path) as con:
-            rows = con.execute(sql + " ORDER BY name, version", params).fetchall()
-        entries = [_entry(r) for r in rows]
+        entries = [_entry(r) for r in self._query(sql + " ORDER BY name, version", params)]
         if all_versions:
             return entries
         latest: dict[str, BallEntry] = {}
         for e in entries:
             latest[e.name] = e
-        return list(latest.values())
+        return builtins.list(latest.values())
 
     def find(self, ball: AnyBall) -> BallEntry | None:
         """The newest entry whose spec equals ``ball`` (None if the library has none)."""
-        with connect(self.index_path) as con:
-            row = con.execute(
-                "SELECT * FROM balls WHERE sha = ? ORDER BY added_at DESC, version DESC LIMIT 1",
-                (ball_sha(ball),),
-            ).fetchone()
-        return None if row is None else _entry(row)
+        return self.find_sha(ball_sha(ball))
+
+    def find_sha(self, sha: str) -> BallEntry | None:
+        """The newest entry whose spec has SHA-256 ``sha`` (None if the library has none)."""
+        rows = self._query(
+            "SELECT * FROM balls WHERE sha = ? ORDER BY added_at DESC, version DESC LIMIT 1",
+            (sha,),
+        )
+        return _entry(rows[0]) if rows else None
 
     def remove(self, name: str, version: int) -> None:
         """Delete one version (runs that used it keep their copy of the spec)."""
-        with connect(self.index_path) as con:
-            cur = con.execute("DELETE FROM balls WHERE name = ? AND version = ?", (name, version))
-            if cur.rowcount == 0:
+        with self.archive.writer_lock():
+            con = self.archive.index_writer()
+            path = self._dir(name) / f"{version}.json"
+            known = con.execute(
+                "SELECT 1 FROM balls WHERE name = ? AND version = ?", (name, version)
+            ).fetchall()
+            if not known and not path.exists():
                 raise BallNotFoundError(f"no ball {name}@{version} in the library")
+            path.unlink(missing_ok=True)  # the file first: a removed ball never comes back
+            with transaction(con, write=True):
+                con.execute("DELETE FROM balls WHERE name = ? AND version = ?", (name, version))
 
     def export_json(self, path: str | Path | None = None) -> dict[str, Any]:
         """Every version of every ball as a JSON document (written to ``path`` if given)."""

@@ -1,15 +1,19 @@
-"""The archive's index: one row per run (summary metrics, ball, pattern), in SQLite.
+"""The archive's index: one row per live run, one per segment, the ball library, in SQLite.
 
-Listing or filtering 10,000 runs reads this one table, never the run files. SQLite gives atomic
-transactions (a killed writer leaves the last committed state), concurrent readers and indexed
-queries from the standard library. The run files stay the source of truth: the index can be
-rebuilt from them (:meth:`bowlrec.archive.Archive.reindex`).
+The index is derived: everything in it is rebuilt from the segment files, the ball files and the
+tombstones (:mod:`bowlrec.archive.maintenance`). Listing or filtering a million runs reads this
+file, never the segments. Writers hold the archive's writer lock and commit in ``BEGIN
+IMMEDIATE`` transactions (rollback journal, ``synchronous=FULL``); readers open the file
+read-only (``mode=ro``), so reading needs no write access, and a rebuilt index replaces the old
+one by an atomic rename, so a reader sees the old index or the new, never a partial one.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
 import sqlite3
+import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -17,15 +21,26 @@ from typing import Any
 __all__ = [
     "COMPARISONS",
     "INDEX_COLUMNS",
+    "INDEX_FORMAT",
     "NUMERIC_COLUMNS",
+    "RUN_TABLE_COLUMNS",
     "Filter",
     "IndexError_",
-    "connect",
+    "IndexUnreadableError",
+    "create_schema",
+    "open_index",
+    "select_sql",
+    "transaction",
 ]
 
-#: column name -> SQLite type; the order is the order of ``runs list`` output
-INDEX_COLUMNS: dict[str, str] = {
+#: the index schema's version (meta key ``index_format``); another value means "rebuild"
+INDEX_FORMAT = "2"
+
+#: stored per run (table ``runs``): column -> SQLite type
+RUN_TABLE_COLUMNS: dict[str, str] = {
     "run_id": "TEXT PRIMARY KEY",
+    "segment_id": "TEXT NOT NULL",
+    "row": "INTEGER NOT NULL",
     "name": "TEXT",
     "created_at": "TEXT",
     "ball_name": "TEXT",
@@ -52,18 +67,60 @@ INDEX_COLUMNS: dict[str, str] = {
     "record": "TEXT",
     "solver": "TEXT",
     "wall_time_s": "REAL",
+}
+
+#: the columns of a listed run (``runs list --json``, ``GET /runs``): the stored ones, then the
+#: segment's versions and path; the order is the order of the output
+INDEX_COLUMNS: dict[str, str] = {
+    **{k: v.split()[0] for k, v in RUN_TABLE_COLUMNS.items()},
     "physics_version": "TEXT",
     "bowlrec_version": "TEXT",
     "path": "TEXT",
 }
 NUMERIC_COLUMNS = frozenset(k for k, v in INDEX_COLUMNS.items() if v in ("REAL", "INTEGER"))
 COMPARISONS = ("<=", ">=", "!=", "=", "<", ">")
+#: SELECT list of a listed run (runs joined with its segment)
+SELECT_COLUMNS = ", ".join(
+    [f"r.{k}" for k in RUN_TABLE_COLUMNS] + ["s.physics_version", "s.bowlrec_version", "s.path"]
+)
 
 _SCHEMA = f"""
-CREATE TABLE IF NOT EXISTS runs ({", ".join(f"{k} {v}" for k, v in INDEX_COLUMNS.items())});
-CREATE INDEX IF NOT EXISTS runs_ball ON runs (ball_name, ball_version);
+CREATE TABLE IF NOT EXISTS runs (
+    {", ".join(f"{k} {v}" for k, v in RUN_TABLE_COLUMNS.items())}
+) WITHOUT ROWID;
+CREATE INDEX IF NOT EXISTS runs_created ON runs (created_at);
+CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome, created_at);
 CREATE INDEX IF NOT EXISTS runs_pattern ON runs (pattern);
-CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome);
+CREATE INDEX IF NOT EXISTS runs_ball ON runs (ball_name, ball_version);
+CREATE TABLE IF NOT EXISTS segments (
+    segment_id TEXT PRIMARY KEY,
+    path TEXT NOT NULL,
+    n_runs INTEGER NOT NULL,
+    size_bytes INTEGER NOT NULL,
+    bowlrec_version TEXT,
+    physics_version TEXT,
+    provenance_json TEXT NOT NULL
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS shadowed (
+    segment_id TEXT NOT NULL,
+    run_id TEXT NOT NULL,
+    row INTEGER NOT NULL,
+    PRIMARY KEY (segment_id, run_id)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS tombstones (
+    segment_id TEXT NOT NULL,
+    run_id TEXT NOT NULL,
+    reason TEXT NOT NULL,
+    PRIMARY KEY (segment_id, run_id)
+) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS tombstone_files (name TEXT PRIMARY KEY) WITHOUT ROWID;
+CREATE TABLE IF NOT EXISTS damaged (
+    segment_id TEXT NOT NULL,
+    run_id TEXT NOT NULL,
+    reason TEXT NOT NULL,
+    detected_at TEXT NOT NULL,
+    PRIMARY KEY (segment_id, run_id)
+) WITHOUT ROWID;
 CREATE TABLE IF NOT EXISTS balls (
     name TEXT NOT NULL,
     version INTEGER NOT NULL,
@@ -82,28 +139,103 @@ class IndexError_(ValueError):  # noqa: N801 - "IndexError" is a builtin
     """A bad query on the index (unknown column, bad comparison or value)."""
 
 
-@contextlib.contextmanager
-def connect(path: Path) -> Iterator[sqlite3.Connection]:
-    """A connection with the schema in place; commits on success, rolls back on error.
+class IndexUnreadableError(RuntimeError):
+    """The index file is missing, damaged or of another format (it can be rebuilt)."""
 
-    WAL journaling with synchronous=FULL: a committed row survives a killed process (and a power
-    loss); readers never block the writer. One connection per call keeps threads independent.
+
+def create_schema(con: sqlite3.Connection) -> None:
+    """Create the tables (a no-op where they exist) and stamp the index format."""
+    con.executescript(_SCHEMA)
+    con.execute(
+        "INSERT OR REPLACE INTO meta (key, value) VALUES ('index_format', ?)", (INDEX_FORMAT,)
+    )
+
+
+def _configure(con: sqlite3.Connection) -> None:
+    con.row_factory = sqlite3.Row
+    con.execute("PRAGMA journal_mode=DELETE")
+    con.execute("PRAGMA synchronous=FULL")
+
+
+def check_format(con: sqlite3.Connection) -> None:
+    """Raise :class:`IndexUnreadableError` unless this is an index of :data:`INDEX_FORMAT`."""
+    try:
+        rows = con.execute("SELECT value FROM meta WHERE key = 'index_format'").fetchall()
+        row = rows[0] if rows else None
+    except sqlite3.DatabaseError as err:
+        raise IndexUnreadableError(f"not a bowlrec index ({err})") from None
+    if row is None or row[0] != INDEX_FORMAT:
+        found = None if row is None else row[0]
+        raise IndexUnreadableError(f"index format {found!r}, expected {INDEX_FORMAT!r}")
+
+
+_local = threading.local()
+
+
+def open_index(path: Path, *, write: bool) -> sqlite3.Connection:
+    """A connection to the index at ``path`` (kept per thread, reopened when the file was
+    replaced). ``write=False`` opens read-only (``mode=ro``): no write access needed.
+
+    Raises :class:`IndexUnreadableError` when the file is missing, not a database or of
+    another index format.
     """
-    con = sqlite3.connect(path, timeout=60.0, isolation_level=None)
+    cache: dict[tuple[str, bool], tuple[int, sqlite3.Connection]] = _local.__dict__.setdefault(
+        "connections", {}
+    )
+    key = (str(path), write)
+    try:
+        inode = os.stat(path).st_ino
+    except FileNotFoundError:
+        raise IndexUnreadableError(f"{path}: no index file") from None
+    cached = cache.get(key)
+    if cached is not None and cached[0] == inode:
+        return cached[1]
+    if cached is not None:
+        cached[1].close()
+        del cache[key]
+    uri = f"file:{path}?mode={'rw' if write else 'ro'}"
+    try:
+        con = sqlite3.connect(uri, uri=True, timeout=60.0, isolation_level=None)
+    except sqlite3.OperationalError as err:
+        raise IndexUnreadableError(f"{path}: cannot open the index ({err})") from None
     try:
         con.row_factory = sqlite3.Row
-        con.execute("PRAGMA journal_mode=WAL")
-        con.execute("PRAGMA synchronous=FULL")
-        con.executescript(_SCHEMA)
-        con.execute("BEGIN")
-        try:
-            yield con
-        except BaseException:
-            con.execute("ROLLBACK")
-            raise
-        con.execute("COMMIT")
-    finally:
+        if write:
+            _configure(con)
+        check_format(con)
+    except (sqlite3.DatabaseError, IndexUnreadableError) as err:
         con.close()
+        raise IndexUnreadableError(f"{path}: {err}") from None
+    cache[key] = (inode, con)
+    return con
+
+
+def forget_connections(path: Path) -> None:
+    """Close this thread's cached connections to ``path`` (before the file is replaced)."""
+    cache = _local.__dict__.get("connections", {})
+    for key in [k for k in cache if k[0] == str(path)]:
+        cache.pop(key)[1].close()
+
+
+def new_index(path: Path) -> sqlite3.Connection:
+    """A fresh index file at ``path`` (which must not exist), schema in place."""
+    con = sqlite3.connect(path, timeout=60.0, isolation_level=None)
+    _configure(con)
+    create_schema(con)
+    return con
+
+
+@contextlib.contextmanager
+def transaction(con: sqlite3.Connection, *, write: bool = False) -> Iterator[sqlite3.Connection]:
+    """One transaction: ``BEGIN IMMEDIATE`` for writers (takes the write lock up front, so a
+    read-then-write never fails with "database is locked"), a consistent snapshot for readers."""
+    con.execute("BEGIN IMMEDIATE" if write else "BEGIN")
+    try:
+        yield con
+    except BaseException:
+        con.execute("ROLLBACK")
+        raise
+    con.execute("COMMIT")
 
 
 class Filter:
@@ -138,10 +270,14 @@ class Filter:
         )
 
     def sql(self) -> tuple[str, Any]:
-        return f"{self.column} {self.op} ?", self.value
+        return f"{_qualified(self.column)} {self.op} ?", self.value
 
     def __repr__(self) -> str:
         return f"Filter({self.column}{self.op}{self.value!r})"
+
+
+def _qualified(column: str) -> str:
+    return f"r.{column}" if column in RUN_TABLE_COLUMNS else f"s.{column}"
 
 
 def select_sql(
@@ -150,9 +286,9 @@ def select_sql(
     limit: int | None,
     clauses: Sequence[tuple[str, Sequence[Any]]] = (),
 ) -> tuple[str, list[Any]]:
-    """The SELECT statement and its parameters for :func:`Archive.list_runs`.
+    """The SELECT statement and its parameters for :meth:`Archive.list_runs`.
 
-    ``clauses`` are extra (sql, params) conditions ANDed with the filters.
+    ``clauses`` are extra (sql, params) conditions on table ``r`` ANDed with the filters.
     """
     if order_by.lstrip("-") not in INDEX_COLUMNS:
         raise IndexError_(f"cannot order by unknown column {order_by!r}")
@@ -164,7 +300,10 @@ def select_sql(
         params.append(value)
     where = f" WHERE {' AND '.join(clauses_sql)}" if clauses_sql else ""
     direction = "DESC" if order_by.startswith("-") else "ASC"
-    sql = f"SELECT * FROM runs{where} ORDER BY {order_by.lstrip('-')} {direction}, run_id"
+    sql = (
+        f"SELECT {SELECT_COLUMNS} FROM runs r JOIN segments s ON s.segment_id = r.segment_id"
+        f"{where} ORDER BY {_qualified(order_by.lstrip('-'))} {direction}, r.run_id"
+    )
     if limit is not None:
         sql += f" LIMIT {int(limit)}"
     return sql, params

@@ -1,17 +1,21 @@
-"""An archive directory: one HDF5 file per run, an SQLite index, a ball-spec library.
+"""An archive directory (format 2.0): sealed segment files, ball files, tombstones, an index.
 
 ::
 
     ARCHIVE/
-      archive.json              format marker {"format": "bowlrec-archive", "format_version": ...}
-      index.sqlite              runs table (one row per run) + balls table (the library)
-      runs/<id[:2]>/<id>.h5     one run per file (bowlrec.sinks.hdf5_run), never rewritten
-      .writer.lock              held (flock) while a process adds or removes runs
+      archive.json                 {"format": "bowlrec-archive", "format_version": "2.0"}
+      segments/<segment>.h5        sealed segments: many runs each, never modified
+      balls/<name>/<version>.json  the ball library, one file per version
+      tombstones/<time>-<id>.json  removed or damaged copies of runs
+      quarantine/<segment>.h5      damaged segments set aside by `runs repair` (+ a report)
+      index.sqlite                 derived: runs, segments, balls; rebuilt from the files above
+      .writer.lock                 flock()ed while a process registers, removes or repairs
 
-Adding a run writes its file whole under a temporary name, fsyncs it, renames it into place,
-then commits its index row. A writer killed at any moment loses at most that run: a leftover
-temporary is deleted by the next writer, and a run file without an index row (a kill between
-the rename and the commit) is indexed by the next writer (:meth:`Archive.repair`).
+Any process may seal segments (:meth:`Archive.builder`, :class:`~.segment.SegmentBuilder`);
+one process at a time registers them (:meth:`Archive.register`, under the writer lock). A
+writer killed at any moment loses at most its unsealed segment: a sealed but unregistered
+segment is registered by the next writer (:meth:`Archive.recover`). Reading needs no write
+access. See docs/archive-format.md.
 """
 
 from __future__ import annotations
@@ -20,18 +24,23 @@ import contextlib
 import fcntl
 import json
 import os
-import shutil
+import sqlite3
+import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.sinks.atomic import atomic_path, remove_stale_parts
-
-from .balls import BallLibrary
-from .index import INDEX_COLUMNS, Filter, connect, select_sql
-from .run_id import run_id as content_id
+from .balls import BallLibrary, ball_sha
+from .index import (
+    SELECT_COLUMNS,
+    Filter,
+    IndexUnreadableError,
+    open_index,
+    select_sql,
+    transaction,
+)
 
 if TYPE_CHECKING:
     from bowlrec.core.trajectory import Trajectory
@@ -39,14 +48,31 @@ if TYPE_CHECKING:
     from bowlrec.sinks.hdf5_run import StoredRun
     from bowlrec.spec import Scene
 
-__all__ = ["ARCHIVE_FORMAT", "AddResult", "Archive", "ArchiveError", "RunNotFoundError"]
+    from .segment import RunRecord, SegmentBuilder, SegmentInfo
+
+__all__ = [
+    "ARCHIVE_FORMAT",
+    "ARCHIVE_FORMAT_VERSION",
+    "AddResult",
+    "Archive",
+    "ArchiveError",
+    "ArchiveWriteError",
+    "RunNotFoundError",
+    "pattern_label",
+]
 
 ARCHIVE_FORMAT = "bowlrec-archive"
-ARCHIVE_FORMAT_VERSION = "1.0"
+ARCHIVE_FORMAT_VERSION = "2.0"
+#: names an archive directory may hold besides its marker (a new archive may start with them)
+_ARCHIVE_ENTRIES = {".writer.lock"}
 
 
 class ArchiveError(RuntimeError):
     """The directory is not a usable archive."""
+
+
+class ArchiveWriteError(OSError):
+    """Writing to the archive failed (full disk, no permission); nothing stored was lost."""
 
 
 class RunNotFoundError(KeyError):
@@ -61,6 +87,7 @@ class AddResult:
     """What :meth:`Archive.add` or :meth:`Archive.simulate` did."""
 
     run_id: str
+    #: the segment file that holds the run
     path: Path
     #: False when the run was already archived (nothing was written)
     added: bool
@@ -68,62 +95,255 @@ class AddResult:
     trajectory: Trajectory | None = None
 
 
+def pattern_label(scene: Scene) -> str:
+    """The lane's oil pattern for filtering: the preset or pattern-sheet name a bowler scene
+    was built from, else the friction map's kind (typical, zones, constant, grid)."""
+    friction = scene.lane.friction
+    return str(getattr(friction, "pattern", None) or friction.kind)
+
+
+def _read_marker(marker: Path) -> dict[str, Any]:
+    try:
+        meta = json.loads(marker.read_text())
+    except (OSError, ValueError) as err:
+        raise ArchiveError(f"{marker}: unreadable archive marker ({err})") from None
+    if not isinstance(meta, dict) or meta.get("format") != ARCHIVE_FORMAT:
+        raise ArchiveError(f"{marker}: not a bowlrec archive marker")
+    return meta
+
+
 class Archive:
     """A directory of runs with an index and a ball library (created on first use)."""
 
     def __init__(self, root: str | os.PathLike[str], *, create: bool = True) -> None:
         self.root = Path(root).expanduser()
-        self.runs_dir = self.root / "runs"
+        self.segments_dir = self.root / "segments"
+        self.balls_dir = self.root / "balls"
+        self.tombstones_dir = self.root / "tombstones"
+        self.quarantine_dir = self.root / "quarantine"
         self.index_path = self.root / "index.sqlite"
+        self._lock = threading.RLock()
+        self._lock_depth = 0
+        self._lock_file: Any = None
+        self._memory: sqlite3.Connection | None = None
+        self._recovered = False
+        self._ball_shas: dict[int, tuple[Any, str]] = {}
+        self._ball_refs: dict[str, str] = {}
         marker = self.root / "archive.json"
         if not marker.exists():
             if not create:
                 raise ArchiveError(f"{self.root} is not a bowlrec archive (no archive.json)")
-            if self.root.exists() and any(self.root.iterdir()):
+            self._create(marker)
+        meta = _read_marker(marker)
+        version = str(meta.get("format_version", ""))
+        major = version.split(".")[0]
+        if major == "1":
+            raise ArchiveError(
+                f"{self.root} is a format {version} archive; this bowlrec reads format "
+                f"{ARCHIVE_FORMAT_VERSION.split('.')[0]}.x. Convert it once with: "
+                f"bowlrec archive migrate {self.root}"
+            )
+        if major != ARCHIVE_FORMAT_VERSION.split(".")[0]:
+            raise ArchiveError(
+                f"{self.root}: archive format {version} is not supported "
+                f"(this bowlrec reads {ARCHIVE_FORMAT_VERSION.split('.')[0]}.x)"
+            )
+        self.balls = BallLibrary(self)
+
+    def _create(self, marker: Path) -> None:
+        """Make a new archive; safe when several processes create the same one at once."""
+        from bowlrec.sinks.atomic import atomic_path
+
+        self.root.mkdir(parents=True, exist_ok=True)
+        with self.writer_lock():
+            if marker.exists():
+                return  # another process created it while this one waited for the lock
+            strangers = [p.name for p in self.root.iterdir() if p.name not in _ARCHIVE_ENTRIES]
+            if strangers:
                 raise ArchiveError(
                     f"{self.root} exists, is not empty and is not a bowlrec archive; "
                     "choose an empty or new directory"
                 )
-            self.runs_dir.mkdir(parents=True, exist_ok=True)
+            for d in (self.segments_dir, self.balls_dir, self.tombstones_dir):
+                d.mkdir(exist_ok=True)
+            from .maintenance import rebuild_index
+
+            rebuild_index(self)
             with atomic_path(marker) as tmp:
-                tmp.write_text(
-                    json.dumps({"format": ARCHIVE_FORMAT, "format_version": ARCHIVE_FORMAT_VERSION})
-                    + "\n"
-                )
-        else:
-            meta = json.loads(marker.read_text())
-            if meta.get("format") != ARCHIVE_FORMAT:
-                raise ArchiveError(f"{marker}: not a bowlrec archive marker")
-            major = str(meta.get("format_version", "")).split(".")[0]
-            if major != ARCHIVE_FORMAT_VERSION.split(".")[0]:
-                raise ArchiveError(
-                    f"{self.root}: archive format {meta.get('format_version')} is not supported "
-                    f"(this bowlrec reads {ARCHIVE_FORMAT_VERSION.split('.')[0]}.x)"
-                )
-        self.balls = BallLibrary(self.index_path)
+                doc = {"format": ARCHIVE_FORMAT, "format_version": ARCHIVE_FORMAT_VERSION}
+                tmp.write_text(json.dumps(doc) + "\n")
 
     def __repr__(self) -> str:
         return f"Archive({str(self.root)!r})"
 
-    # -- writing -------------------------------------------------------------------------------
+    @property
+    def writable(self) -> bool:
+        """True when this process may write the archive directory."""
+        return os.access(self.root, os.W_OK)
+
+    # -- locking and the index -------------------------------------------------------------------
 
     @contextlib.contextmanager
     def writer_lock(self) -> Iterator[None]:
-        """Exclusive across processes (flock; released by the OS if the holder dies)."""
-        with open(self.root / ".writer.lock", "a") as fh:
-            fcntl.flock(fh, fcntl.LOCK_EX)
+        """Exclusive across processes (flock; released by the OS if the holder dies) and
+        threads; re-entrant within a thread."""
+        with self._lock:
+            if self._lock_depth == 0:
+                try:
+                    fh = open(self.root / ".writer.lock", "a")  # noqa: SIM115 - held below
+                except OSError as err:
+                    raise ArchiveWriteError(
+                        f"{self.root}: cannot write to the archive ({err.strerror})"
+                    ) from None
+                fcntl.flock(fh, fcntl.LOCK_EX)
+                self._lock_file = fh
+            self._lock_depth += 1
             try:
                 yield
             finally:
-                fcntl.flock(fh, fcntl.LOCK_UN)
+                self._lock_depth -= 1
+                if self._lock_depth == 0:
+                    fcntl.flock(self._lock_file, fcntl.LOCK_UN)
+                    self._lock_file.close()
+                    self._lock_file = None
 
-    def run_path(self, run_id: str) -> Path:
-        """Where the run file of ``run_id`` lives (whether or not it exists)."""
-        return self.runs_dir / run_id[:2] / f"{run_id}.h5"
+    def index_reader(self) -> sqlite3.Connection:
+        """A read-only connection to the index. A missing or damaged index is rebuilt first
+        (when this process may write), else built in memory from the data files."""
+        if self._memory is not None:
+            return self._memory
+        try:
+            return open_index(self.index_path, write=False)
+        except IndexUnreadableError:
+            if self.writable:
+                with self.writer_lock():
+                    self.index_writer()
+                return open_index(self.index_path, write=False)
+            from .maintenance import memory_index
 
-    def has_run(self, run_id: str) -> bool:
-        """True when the run's file is in place (an indexed run always has its file)."""
-        return self.run_path(run_id).exists()
+            self._memory = memory_index(self)
+            return self._memory
+
+    def index_writer(self) -> sqlite3.Connection:
+        """A writing connection to the index (hold :meth:`writer_lock`); a missing or damaged
+        index is rebuilt from the data files first."""
+        assert self._lock_depth > 0, "index_writer() needs the writer lock"
+        try:
+            con = open_index(self.index_path, write=True)
+        except IndexUnreadableError:
+            from .maintenance import rebuild_index
+
+            rebuild_index(self)
+            con = open_index(self.index_path, write=True)
+        if not self._recovered:
+            self._recovered = True
+            from .maintenance import recover
+
+            recover(self, con)
+        return con
+
+    def recover(self) -> dict[str, int]:
+        """Finish what killed writers left (cheap; no checksums read): delete stale
+        temporaries, register sealed segments and ball and tombstone files the index lacks."""
+        from .maintenance import recover
+
+        with self.writer_lock():
+            return recover(self, self.index_writer())
+
+    # -- writing ---------------------------------------------------------------------------------
+
+    def builder(self) -> SegmentBuilder:
+        """A new segment builder carrying this process's provenance."""
+        from .provenance import environment
+        from .segment import SegmentBuilder
+
+        return SegmentBuilder(environment())
+
+    def record(
+        self,
+        run: RunData,
+        *,
+        wall_time_s: float,
+        ball_ref: str | None = None,
+        solver: str = "",
+        created_at_ns: int | None = None,
+    ) -> RunRecord:
+        """A finished run as a segment record (``ball_ref`` None: looked up by spec)."""
+        from .segment import RunRecord
+
+        sha = self._ball_sha(run.scene.ball)
+        if ball_ref is None:
+            if sha not in self._ball_refs:
+                entry = self.balls.find_sha(sha)
+                self._ball_refs[sha] = entry.ref if entry is not None else ""
+            ball_ref = self._ball_refs[sha]
+        return RunRecord.from_run(
+            run,
+            wall_time_s=wall_time_s,
+            ball_ref=ball_ref,
+            solver=solver,
+            ball_sha=sha,
+            pattern=pattern_label(run.scene),
+            created_at_ns=created_at_ns,
+        )
+
+    def _ball_sha(self, ball: Any) -> str:
+        cached = self._ball_shas.get(id(ball))
+        if cached is not None and cached[0] is ball:
+            return cached[1]
+        sha = ball_sha(ball)
+        if len(self._ball_shas) > 4096:
+            self._ball_shas.clear()
+        self._ball_shas[id(ball)] = (ball, sha)
+        return sha
+
+    def seal(self, builder: SegmentBuilder, *, durable: bool = True) -> SegmentInfo:
+        """Write the builder's runs as a sealed segment of this archive (not yet registered)."""
+        try:
+            return builder.seal(self.segments_dir, durable=durable)
+        except OSError as err:
+            raise ArchiveWriteError(
+                f"{self.segments_dir}: could not write a segment of {len(builder)} run(s) "
+                f"({err.strerror or err}); nothing already archived was lost"
+            ) from None
+
+    def register(self, segments: Iterable[SegmentInfo | Path]) -> tuple[int, int]:
+        """Index sealed segments in one transaction: (runs indexed, duplicate copies)."""
+        from .registry import register_segment
+
+        paths = [s.path if not isinstance(s, Path) else s for s in segments]
+        added = shadowed = 0
+        try:
+            with self.writer_lock():
+                con = self.index_writer()
+                with transaction(con, write=True):
+                    dead = self._dead_runs(con, paths)
+                    for path in paths:
+                        a, s = register_segment(
+                            con, path, self._relative(path), dead=dead.get(path.stem, ())
+                        )
+                        added += a
+                        shadowed += s
+        except sqlite3.OperationalError as err:
+            raise ArchiveWriteError(
+                f"{self.index_path}: could not register {len(paths)} segment(s) ({err}); they "
+                "are sealed on disk and the next writer or `bowlrec runs repair` indexes them"
+            ) from None
+        return added, shadowed
+
+    @staticmethod
+    def _dead_runs(con: sqlite3.Connection, paths: Sequence[Path]) -> dict[str, set[str]]:
+        dead: dict[str, set[str]] = {}
+        for path in paths:
+            rows = con.execute(
+                "SELECT run_id FROM tombstones WHERE segment_id = ?", (path.stem,)
+            ).fetchall()
+            if rows:
+                dead[path.stem] = {r[0] for r in rows}
+        return dead
+
+    def _relative(self, path: Path) -> str:
+        return str(path.relative_to(self.root))
 
     def add(
         self,
@@ -134,45 +354,51 @@ class Archive:
         solver: str = "",
         durable: bool = True,
     ) -> AddResult:
-        """Store a finished run (idempotent: an already archived run ID writes nothing).
+        """Store a finished run as a segment of one run (idempotent: an already archived run
+        ID writes nothing).
 
         ``ball_ref`` ("name@version") names the library ball the scene used; when None the
         library is searched for a spec equal to the scene's ball.
         """
         from bowlrec.sinks.common import RunData as _RunData
-        from bowlrec.sinks.hdf5_run import write_run_file
 
-        from .provenance import provenance
+        from .run_id import run_id as content_id
 
         rid = run.run_id or content_id(run.plan)
         run = _RunData(run.scene, run.plan, run.trajectory, rid)
-        path = self.run_path(rid)
-        with self.writer_lock():
-            if path.exists():
-                self._ensure_indexed(rid)
-                return AddResult(rid, path, False, run.trajectory)
-            if ball_ref is None:
-                entry = self.balls.find(run.scene.ball)
-                ball_ref = entry.ref if entry is not None else ""
-            attrs = provenance(run, wall_time_s=wall_time_s, ball_ref=ball_ref, solver=solver)
-            write_run_file(path, run, attrs, durable=durable)
-            self._index(self._row(rid, attrs, run))
-        return AddResult(rid, path, True, run.trajectory)
+        found = self.locate(rid)
+        if found is not None:
+            return AddResult(rid, found[2], False, run.trajectory)
+        builder = self.builder()
+        builder.append(self.record(run, wall_time_s=wall_time_s, ball_ref=ball_ref, solver=solver))
+        info = self.seal(builder, durable=durable)
+        self.register([info])
+        found = self.locate(rid)
+        if found is not None and found[0] != info.segment_id:
+            # another writer archived the same run first; this copy is a shadowed duplicate
+            return AddResult(rid, found[2], False, run.trajectory)
+        return AddResult(rid, info.path, True, run.trajectory)
 
     def simulate(
         self, scene: Scene, *, ball_ref: str | None = None, method: str = "auto"
     ) -> AddResult:
         """Simulate ``scene`` and store it, unless its run ID is archived already (then the
-        stored trajectory is returned and nothing is simulated or written)."""
+        stored trajectory is returned and nothing is simulated or written). A stored copy
+        found damaged is set aside and the scene simulated again."""
         from bowlrec.core.solver import solve, use_closed_form
         from bowlrec.sinks.common import RunData
 
+        from .run_id import run_id as content_id
+        from .segment_file import RunDamagedError
+
         plan = scene.resolve()
         rid = content_id(plan)
-        if self.has_run(rid):
-            with self.writer_lock():
-                self._ensure_indexed(rid)
-            return AddResult(rid, self.run_path(rid), False, self.load(rid).trajectory)
+        found = self.locate(rid)
+        if found is not None:
+            try:
+                return AddResult(rid, found[2], False, self.load(rid).trajectory)
+            except RunDamagedError as err:
+                self.set_aside(rid, found[0], f"damaged: {err.reason}")
         start = time.perf_counter()
         traj = solve(plan, method)
         wall = time.perf_counter() - start
@@ -185,103 +411,61 @@ class Archive:
             RunData(scene, plan, traj, rid), wall_time_s=wall, ball_ref=ball_ref, solver=used
         )
 
-    def remove(self, run_id: str) -> str:
-        """Delete a run (its file, then its index row); returns the full run ID.
+    def set_aside(self, run_id: str, segment_id: str, reason: str) -> None:
+        """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it
+        from the index; a damaged copy is listed by :meth:`damaged`."""
+        from .maintenance import kill_copies
+        from .tombstones import Tombstone
 
-        A kill between the two steps leaves a row without a file, which :meth:`repair` drops, so
-        a removed run never comes back.
+        with self.writer_lock():
+            kill_copies(self, self.index_writer(), [Tombstone(segment_id, run_id, reason)])
+
+    def remove(self, run_id: str) -> str:
+        """Remove a run (every stored copy of it); returns the full run ID.
+
+        Segments are not rewritten: a tombstone file records the removal first, so a removed
+        run never comes back; :meth:`compact` reclaims the space.
         """
+        from .maintenance import kill_copies
+        from .tombstones import Tombstone
+
         rid = self.resolve_id(run_id)
         with self.writer_lock():
-            with contextlib.suppress(FileNotFoundError):
-                self.run_path(rid).unlink()
-            with connect(self.index_path) as con:
-                con.execute("DELETE FROM runs WHERE run_id = ?", (rid,))
+            con = self.index_writer()
+            copies = [
+                r[0]
+                for r in con.execute(
+                    "SELECT segment_id FROM runs WHERE run_id = ? UNION "
+                    "SELECT segment_id FROM shadowed WHERE run_id = ?",
+                    (rid, rid),
+                )
+            ]
+            kill_copies(self, con, [Tombstone(seg, rid, "removed") for seg in copies])
         return rid
 
-    def repair(self) -> dict[str, int]:
-        """Finish what killed writers left: delete temporaries, index unindexed run files and
-        drop index rows whose file is gone. Returns counts of each."""
-        from bowlrec.sinks.hdf5_run import RunFileError
+    def repair(self, *, min_age_s: float = 2.0) -> dict[str, Any]:
+        """Check every stored run's digest and the index against the segments; quarantine
+        damaged segments (their healthy runs are rewritten to a new segment). A report."""
+        from .repair import repair
 
-        with self.writer_lock():
-            removed = remove_stale_parts(self.runs_dir)
-            on_disk = {p.stem: p for p in self.runs_dir.glob("*/*.h5")}
-            with connect(self.index_path) as con:
-                indexed = {r[0] for r in con.execute("SELECT run_id FROM runs")}
-            added = 0
-            for rid in sorted(on_disk.keys() - indexed):
-                try:
-                    self._ensure_indexed(rid)
-                    added += 1
-                except (OSError, RunFileError):
-                    continue
-            gone = sorted(indexed - on_disk.keys())
-            with connect(self.index_path) as con:
-                con.executemany("DELETE FROM runs WHERE run_id = ?", [(r,) for r in gone])
-        return {"temporaries_removed": removed, "runs_indexed": added, "rows_dropped": len(gone)}
+        return repair(self, min_age_s=min_age_s)
 
     def reindex(self) -> int:
-        """Rebuild the runs index from the run files (the source of truth); the run count."""
+        """Rebuild the index from the data files (atomically replaced); the run count."""
+        from .maintenance import rebuild_index
+
         with self.writer_lock():
-            with connect(self.index_path) as con:
-                con.execute("DELETE FROM runs")
-            for path in sorted(self.runs_dir.glob("*/*.h5")):
-                self._ensure_indexed(path.stem)
-        return len(self.list_runs())
+            rebuild_index(self)
+        return len(self)
 
-    def _ensure_indexed(self, rid: str) -> None:
-        from bowlrec.sinks.hdf5_run import read_run_file
+    def compact(self, *, target_runs: int = 10_000) -> dict[str, int]:
+        """Rewrite segments that hold removed, damaged or duplicate copies, and merge small
+        segments, into segments of up to ``target_runs`` runs. A report."""
+        from .compaction import compact
 
-        with connect(self.index_path) as con:
-            if con.execute("SELECT 1 FROM runs WHERE run_id = ?", (rid,)).fetchone():
-                return
-        stored = read_run_file(self.run_path(rid))
-        from bowlrec.sinks.common import RunData
+        return compact(self, target_runs=target_runs)
 
-        run = RunData(stored.scene, stored.scene.resolve(), stored.trajectory, rid)
-        self._index(self._row(rid, stored.attrs, run))
-
-    def _row(self, rid: str, attrs: dict[str, Any], run: RunData) -> dict[str, Any]:
-        import numpy as np
-
-        from .balls import ball_sha, parse_ball_ref
-
-        s = run.trajectory.summary
-        ref = str(attrs.get("ball_ref", ""))
-        ball_name, ball_version = parse_ball_ref(ref) if ref else (None, None)
-        row: dict[str, Any] = {
-            "run_id": rid,
-            "name": run.scene.name,
-            "created_at": attrs.get("created_at"),
-            "ball_name": ball_name,
-            "ball_version": ball_version,
-            "ball_sha": ball_sha(run.scene.ball),
-            "pattern": pattern_label(run.scene),
-            "speed_mps": float(np.linalg.norm(run.plan.velocity0_mps[:2])),
-            "rev_rate_rpm": float(np.linalg.norm(run.plan.omega0_radps)) * 60.0 / (2 * np.pi),
-            "mass_kg": run.plan.mass_kg,
-            "n_samples": run.trajectory.n_samples,
-            "rtol": run.plan.rtol,
-            "record": run.scene.options.record,
-            "solver": attrs.get("solver"),
-            "wall_time_s": attrs.get("wall_time_s"),
-            "physics_version": attrs.get("physics_version"),
-            "bowlrec_version": attrs.get("bowlrec_version"),
-            "path": str(self.run_path(rid).relative_to(self.root)),
-        }
-        row.update({k: v for k, v in s.to_dict().items() if k in INDEX_COLUMNS})
-        return row
-
-    def _index(self, row: dict[str, Any]) -> None:
-        cols = ", ".join(row)
-        marks = ", ".join("?" for _ in row)
-        with connect(self.index_path) as con:
-            con.execute(
-                f"INSERT OR REPLACE INTO runs ({cols}) VALUES ({marks})", list(row.values())
-            )
-
-    # -- reading -------------------------------------------------------------------------------
+    # -- reading ---------------------------------------------------------------------------------
 
     def list_runs(
         self,
@@ -305,7 +489,8 @@ class Archive:
             if value is not None:
                 filters.append(Filter(column, "=", value))
         sql, params = select_sql(filters, order_by, limit, clauses)
-        with connect(self.index_path) as con:
+        con = self.index_reader()
+        with transaction(con):
             return [dict(r) for r in con.execute(sql, params)]
 
     def _ball_clause(self, ball: str) -> tuple[str, list[Any]]:
@@ -320,40 +505,119 @@ class Archive:
             for e in self.balls.list(bname, all_versions=True)
             if bversion is None or e.version == bversion
         ]
-        by_ref = "ball_name = ?" + ("" if bversion is None else " AND ball_version = ?")
+        by_ref = "r.ball_name = ?" + ("" if bversion is None else " AND r.ball_version = ?")
         params: list[Any] = [bname] + ([] if bversion is None else [bversion])
         if shas:
-            by_ref += f" OR ball_sha IN ({', '.join('?' for _ in shas)})"
+            by_ref += f" OR r.ball_sha IN ({', '.join('?' for _ in shas)})"
             params += shas
         return by_ref, params
+
+    def damaged(self) -> list[dict[str, Any]]:
+        """Copies of runs found damaged (set aside; quarantined by ``runs repair``)."""
+        con = self.index_reader()
+        rows = con.execute(
+            "SELECT run_id, segment_id, reason, detected_at FROM damaged ORDER BY detected_at"
+        )
+        return [dict(r) for r in rows]
 
     def resolve_id(self, run_id: str) -> str:
         """The full run ID for an ID or a unique prefix of at least 4 characters."""
         if len(run_id) < 4 or not all(c in "0123456789abcdef" for c in run_id):
             raise RunNotFoundError(f"{run_id!r} is not a run ID (hex, at least 4 characters)")
-        with connect(self.index_path) as con:
-            rows = con.execute(
+        rows = (
+            self.index_reader()
+            .execute(
                 "SELECT run_id FROM runs WHERE run_id >= ? AND run_id < ? LIMIT 2",
                 (run_id, run_id + "g"),
-            ).fetchall()
+            )
+            .fetchall()
+        )
         if not rows:
             raise RunNotFoundError(f"no run {run_id!r} in archive {self.root}")
         if len(rows) > 1:
             raise RunNotFoundError(f"run ID prefix {run_id!r} is ambiguous; give more characters")
         return str(rows[0][0])
 
+    def locate(self, run_id: str) -> tuple[str, int, Path] | None:
+        """(segment ID, row, segment path) of an archived run ID; None when not archived."""
+        row = (
+            self.index_reader()
+            .execute(
+                "SELECT r.segment_id, r.row, s.path FROM runs r "
+                "JOIN segments s ON s.segment_id = r.segment_id WHERE r.run_id = ?",
+                (run_id,),
+            )
+            .fetchall()
+        )
+        return None if not row else (row[0][0], int(row[0][1]), self.root / row[0][2])
+
+    def has_run(self, run_id: str) -> bool:
+        """True when ``run_id`` (a full ID) is archived."""
+        return self.locate(run_id) is not None
+
     def row(self, run_id: str) -> dict[str, Any]:
-        """The index row of one run."""
+        """The index row of one run (an ID or a unique prefix)."""
         rid = self.resolve_id(run_id)
-        with connect(self.index_path) as con:
-            return dict(con.execute("SELECT * FROM runs WHERE run_id = ?", (rid,)).fetchone())
+        return self.rows([rid])[rid]
+
+    def rows(self, run_ids: Iterable[str]) -> dict[str, dict[str, Any]]:
+        """Index rows of the archived runs among ``run_ids`` (full IDs), by run ID."""
+        ids = list(run_ids)
+        out: dict[str, dict[str, Any]] = {}
+        con = self.index_reader()
+        for i in range(0, len(ids), 900):
+            part = ids[i : i + 900]
+            sql = (
+                f"SELECT {SELECT_COLUMNS} FROM runs r JOIN segments s "
+                f"ON s.segment_id = r.segment_id WHERE r.run_id IN ({', '.join('?' for _ in part)})"
+            )
+            out.update({r["run_id"]: dict(r) for r in con.execute(sql, part)})
+        return out
 
     def load(self, run_id: str) -> StoredRun:
-        """Read a run back (scene, trajectory, provenance) from its file."""
-        from bowlrec.sinks.hdf5_run import read_run_file
+        """Read a run back (scene, trajectory, provenance), its digest checked.
 
-        rid = run_id if self.has_run(run_id) else self.resolve_id(run_id)
-        return read_run_file(self.run_path(rid))
+        Raises RunNotFoundError, or RunDamagedError (naming the run and its segment) when the
+        stored bytes are damaged.
+        """
+        from bowlrec.sinks.hdf5_run import StoredRun
+        from bowlrec.spec import Scene
+
+        from .registry import iso_times
+        from .segment_file import RunDamagedError, SegmentError, SegmentFile
+
+        found = self.locate(run_id)
+        if found is None:
+            run_id = self.resolve_id(run_id)
+            found = self.locate(run_id)
+            assert found is not None
+        segment_id, row, path = found
+        try:
+            with SegmentFile(path) as seg:
+                rec = seg.read_run(row)
+        except SegmentError as err:
+            raise RunDamagedError(run_id, segment_id, f"unreadable segment: {err}") from None
+        except FileNotFoundError:
+            raise RunDamagedError(run_id, segment_id, "segment file missing") from None
+        if rec.run_id != run_id:
+            raise RunDamagedError(run_id, segment_id, f"row {row} holds run {rec.run_id}")
+        scene = Scene.model_validate_json(rec.scene_json)
+        opts = scene.options
+        attrs = dict(rec.attrs)
+        attrs.update(
+            {
+                "run_id": run_id,
+                "name": scene.name,
+                "created_at": iso_times([attrs.pop("created_at_ns")])[0],
+                "rtol": opts.rtol,
+                "record": opts.record,
+                "record_dt_s": opts.record_dt_s,
+                "record_terms": opts.record_terms,
+                "slide_to_roll": opts.slide_to_roll,
+                "scene_json": rec.scene_json,
+            }
+        )
+        return StoredRun(run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs)
 
     def run_data(self, run_id: str) -> RunData:
         """A stored run as the sinks take it (the plan re-resolved from the stored scene)."""
@@ -363,20 +627,47 @@ class Archive:
         return RunData(stored.scene, stored.scene.resolve(), stored.trajectory, stored.run_id)
 
     def export(self, run_id: str, dest: str | os.PathLike[str]) -> Path:
-        """Copy a run's HDF5 file to ``dest`` (a file or an existing directory)."""
+        """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, with the
+        resolved parameters) at ``dest`` (a file or an existing directory)."""
+        from bowlrec.sinks.common import RunData
+        from bowlrec.sinks.hdf5_run import write_run_file
+
         rid = self.resolve_id(run_id)
+        stored = self.load(rid)
         dest = Path(dest)
         if dest.is_dir():
             dest = dest / f"{rid}.h5"
-        with atomic_path(dest) as tmp:
-            shutil.copyfile(self.run_path(rid), tmp)
-        return dest
+        attrs = {
+            k: v
+            for k, v in stored.attrs.items()
+            if k not in ("format", "format_version", "run_id", "name", "scene_json", "segment_id")
+            and isinstance(v, str | int | float | bool)
+        }
+        attrs["segment_id"] = self.locate(rid)[0]  # type: ignore[index]
+        run = RunData(stored.scene, stored.scene.resolve(), stored.trajectory, rid)
+        return write_run_file(dest, run, attrs)
+
+    def info(self) -> dict[str, Any]:
+        """Format, counts and sizes on disk (bytes) of the archive's parts."""
+        con = self.index_reader()
+
+        def count(table: str) -> int:
+            return int(con.execute(f"SELECT COUNT(*) FROM {table}").fetchall()[0][0])
+
+        seg_bytes = con.execute("SELECT COALESCE(SUM(size_bytes), 0) FROM segments").fetchall()
+        index_bytes = self.index_path.stat().st_size if self.index_path.exists() else 0
+        return {
+            "archive": str(self.root),
+            "format_version": _read_marker(self.root / "archive.json").get("format_version"),
+            "runs": count("runs"),
+            "segments": count("segments"),
+            "segment_bytes": int(seg_bytes[0][0]),
+            "index_bytes": index_bytes,
+            "balls": count("balls"),
+            "removed_or_damaged_copies": count("tombstones"),
+            "duplicate_copies": count("shadowed"),
+            "damaged_runs": count("damaged"),
+        }
 
     def __len__(self) -> int:
-        with connect(self.index_path) as con:
-            return int(con.execute("SELECT COUNT(*) FROM runs").fetchone()[0])
-
-
-def pattern_label(scene: Scene) -> str:
-    """The lane's friction map as a short label for filtering (its ``kind`` for now)."""
-    return str(scene.lane.friction.kind)
+        return int(self.index_reader().execute("SELECT COUNT(*) FROM runs").fetchall()[0][0])

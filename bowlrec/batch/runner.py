@@ -1,11 +1,15 @@
-"""Run prepared jobs: workers simulate, this process is the archive's single writer.
+"""Run prepared jobs: workers simulate, this process writes the archive.
 
 Workers (a local process pool, a dask.distributed cluster, or this process) receive chunks of
 resolved Plans and return summaries and trajectories; they never touch the archive. The calling
-process skips runs whose content ID is archived already, adds each finished run with
-:meth:`~bowlrec.archive.Archive.add` (atomic, so a kill loses at most runs not yet added) and
-reports progress. Cancellation (an Event, set e.g. by SIGINT) stops submitting, keeps every run
-that finished, and marks the rest ``cancelled``.
+process skips runs whose content ID is archived already, collects finished runs into a segment
+(:class:`~bowlrec.archive.SegmentBuilder`) that it seals and registers every
+:data:`SEGMENT_RUNS` runs or :data:`FLUSH_S` seconds (a kill loses at most the runs not yet
+sealed; rerunning the job simulates them again) and reports progress. Cancellation (an Event,
+set e.g. by SIGINT) stops submitting, keeps every run that finished, and marks the rest
+``cancelled``. A write that fails (a full disk) stops the batch the same way: the runs already
+sealed stay, the unsealed ones become failed rows naming the error, and ``BatchResult.error``
+says what happened.
 """
 
 from __future__ import annotations
@@ -45,6 +49,11 @@ __all__ = [
     "run_prepared",
     "simulate_chunk",
 ]
+
+#: runs per sealed segment, at most
+SEGMENT_RUNS = 1000
+#: seconds after which collected runs are sealed even when fewer than SEGMENT_RUNS
+FLUSH_S = 1.0
 
 #: outcomes that mean the model or the solver gave up: recorded as failures, not archived
 FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
@@ -145,6 +154,8 @@ class BatchResult:
     simulate_s: float = 0.0
     write_s: float = 0.0
     replays: list[Path] = field(default_factory=list)
+    #: why the batch stopped early when writing failed (e.g. a full disk); None otherwise
+    error: str | None = None
 
     def count(self, status: str) -> int:
         return sum(1 for r in self.rows if r["status"] == status)
@@ -223,17 +234,15 @@ def _empty_row(prep: PreparedRun) -> dict[str, Any]:
 
 
 def _archived_metrics(archive: Archive, run_ids: set[str]) -> dict[str, dict[str, Any]]:
-    """Summary metrics of already archived runs, from the index (the run file if unindexed)."""
+    """Summary metrics of the runs among ``run_ids`` that are archived already (from the
+    index)."""
     if not run_ids:
         return {}
-    by_id = {r["run_id"]: r for r in archive.list_runs() if r["run_id"] in run_ids}
-    for rid in run_ids - by_id.keys():
-        by_id[rid] = archive.load(rid).trajectory.summary.to_dict()
-    return {rid: _metrics(r) for rid, r in by_id.items()}
+    return {rid: _metrics(r) for rid, r in archive.rows(run_ids).items()}
 
 
 class _Writer:
-    """The single writer: turns worker results into archive runs and table rows."""
+    """Turns worker results into table rows and segments of archive runs."""
 
     def __init__(
         self,
@@ -257,6 +266,11 @@ class _Writer:
         self.simulate_s = 0.0
         self.replays: list[Path] = []
         self._ball_refs: dict[str, str] = {}
+        self.builder = archive.builder()
+        self._pending: list[str] = []
+        self._last_flush = time.perf_counter()
+        #: rows a failed flush settled as failed
+        self.failed_rows = 0
 
     def _ball_ref(self, prep: PreparedRun) -> str:
         if prep.ball_ref is not None:
@@ -271,7 +285,8 @@ class _Writer:
         return self._ball_refs[sha]
 
     def handle(self, res: SimResult) -> int:
-        """Record one result; returns the number of rows it settled."""
+        """Record one result; returns the number of rows it settled (a run to archive settles
+        when its segment is sealed: :meth:`flush`)."""
         from bowlrec.sinks.common import RunData
 
         rows = self.rows_by_id[res.run_id]
@@ -287,20 +302,63 @@ class _Writer:
                 assert prep.scene is not None and prep.plan is not None
                 run = RunData(prep.scene, prep.plan, res.trajectory, res.run_id)
                 start = time.perf_counter()
-                added = self.archive.add(
+                record = self.archive.record(
                     run,
                     wall_time_s=res.wall_time_s,
                     ball_ref=self._ball_ref(prep),
                     solver=res.solver,
-                    durable=self.durable,
                 )
+                if self.builder.append(record):
+                    self._pending.append(res.run_id)
                 self.write_s += time.perf_counter() - start
-                status = "ok" if added.added else "archived"
+                status = "ok"
                 self._replays(run)
         for row in rows:
             row.update(metrics)
             row.update({"status": status, "error": error, "_simulated": True})
-        return len(rows)
+        return 0 if status == "ok" else len(rows)
+
+    def due(self) -> bool:
+        """True when the collected runs should be sealed now."""
+        return len(self.builder) >= SEGMENT_RUNS or (
+            len(self.builder) > 0 and time.perf_counter() - self._last_flush >= FLUSH_S
+        )
+
+    def flush(self) -> int:
+        """Seal the collected runs as one segment and register it; the rows it settled. On a
+        write error the collected runs become failed rows and ArchiveWriteError propagates."""
+        from bowlrec.archive import ArchiveWriteError
+
+        self._last_flush = time.perf_counter()
+        if not len(self.builder):
+            return 0
+        start = time.perf_counter()
+        pending, builder = self._pending, self.builder
+        self._pending, self.builder = [], self.archive.builder()
+        try:
+            info = self.archive.seal(builder, durable=self.durable)
+            self.archive.register([info])
+        except ArchiveWriteError as err:
+            self.failed_rows = self._fail(pending, str(err))
+            raise
+        finally:
+            self.write_s += time.perf_counter() - start
+        return sum(len(self.rows_by_id[rid]) for rid in pending)
+
+    def _fail(self, run_ids: Sequence[str], error: str) -> int:
+        n = 0
+        for rid in run_ids:
+            for row in self.rows_by_id[rid]:
+                row.update({"status": "failed", "error": f"not archived: {error}"})
+                n += 1
+        return n
+
+    def abandon(self, error: str) -> int:
+        """Drop the collected runs (after a failed write), marking their rows failed; the rows
+        it settled."""
+        n = self._fail(self._pending, error)
+        self._pending, self.builder = [], self.archive.builder()
+        return n
 
     def fail_chunk(self, chunk: Sequence[SimTask], err: BaseException) -> int:
         n = 0
@@ -344,7 +402,7 @@ def run_prepared(
     formats: Sequence[str] = (),
     replay_dir: str | Path | None = None,
     durable: bool = True,
-    repair: bool = True,
+    recover: bool = True,
 ) -> BatchResult:
     """Simulate the prepared runs not yet archived and add them to ``archive``.
 
@@ -353,13 +411,15 @@ def run_prepared(
     processes; ``executor``: any concurrent.futures Executor to use instead of both (kept
     open). ``chunk_size``: runs per task (default: about 8 tasks per worker, at most 64 runs).
     ``progress`` is called from this thread after every settled chunk; setting ``cancel``
-    stops the batch after the chunks in flight (their finished runs are kept). ``repair``
-    first runs :meth:`~bowlrec.archive.Archive.repair` (cleans up after a killed writer);
-    ``durable`` is passed to :meth:`~bowlrec.archive.Archive.add`.
+    stops the batch after the chunks in flight (their finished runs are kept). ``recover``
+    first runs :meth:`~bowlrec.archive.Archive.recover` (finishes what a killed writer left);
+    ``durable`` fsyncs every sealed segment.
     """
+    from bowlrec.archive import ArchiveWriteError
+
     start = time.perf_counter()
-    if repair:  # finish what a killed writer left (temporaries, unindexed run files)
-        archive.repair()
+    if recover:  # finish what a killed writer left (temporaries, unregistered segments)
+        archive.recover()
     rows = [_empty_row(p) for p in prepared]
     result = BatchResult(rows, _param_columns(prepared))
     todo: dict[str, SimTask] = {}
@@ -368,7 +428,7 @@ def run_prepared(
             row.update({"status": "failed", "error": p.error})
         elif p.run_id is not None and p.plan is not None:
             todo.setdefault(p.run_id, SimTask(p.run_id, p.plan))
-    archived = _archived_metrics(archive, {rid for rid in todo if archive.has_run(rid)})
+    archived = _archived_metrics(archive, set(todo))
     for p, row in zip(prepared, rows, strict=True):
         if p.run_id in archived:
             row.update({"status": "archived", **archived[p.run_id]})
@@ -419,6 +479,13 @@ def run_prepared(
                     for res in results:
                         done += writer.handle(res)
                         counts["simulated"] += 1
+                if writer.due():
+                    try:
+                        done += writer.flush()
+                    except ArchiveWriteError as err:
+                        done += writer.failed_rows
+                        result.error = str(err)
+                        cancel.set()
                 if finished:
                     report()
             if cancel.is_set():
@@ -434,7 +501,15 @@ def run_prepared(
                     for res in results:
                         done += writer.handle(res)
                         counts["simulated"] += 1
-                report()
+            if result.error is None:
+                try:
+                    done += writer.flush()
+                except ArchiveWriteError as err:
+                    done += writer.failed_rows
+                    result.error = str(err)
+            if result.error is not None:
+                done += writer.abandon(result.error)
+            report()
     result.elapsed_s = time.perf_counter() - start
     result.simulate_s = writer.simulate_s
     result.write_s = writer.write_s

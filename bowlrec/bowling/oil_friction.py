@@ -174,6 +174,7 @@ def pattern_friction(
         y_edges_m=g.y_edges_m.tolist(),
         mu=g.mu.tolist(),
         source=f"oil pattern {pattern.name!r}, {cover}, {_mapping_text(m)}",
+        pattern=pattern.name,
     )
 
 
@@ -208,5 +209,9 @@ def mirror_friction(friction: GridFriction, width_m: float) -> GridFriction:
     ye = [width_m - y for y in reversed(friction.y_edges_m)]
     mu = [list(reversed(row)) for row in friction.mu]
     return GridFriction(
-        x_edges_m=list(friction.x_edges_m), y_edges_m=ye, mu=mu, source=friction.source
+        x_edges_m=list(friction.x_edges_m),
+        y_edges_m=ye,
+        mu=mu,
+        source=friction.source,
+        pattern=friction.pattern,
     )

@@ -133,6 +133,8 @@ class BowlerScene(SpecModel):
             coverstock=self.ball.coverstock,
             mapping=self.oil_friction,
         )
+        if isinstance(self.pattern, str):  # index runs by the preset's name
+            friction = friction.model_copy(update={"pattern": self.pattern})
         delivery = self.delivery.to_physical(self.lane)
         ball = resolve_ball(
             self.ball,

@@ -66,21 +66,30 @@ def open_archive(path: Path | None, *, create: bool = True) -> Archive:
     try:
         return Archive(path, create=create)
     except (ArchiveError, OSError) as err:
-        fail(str(err))
+        fail(str(err).removeprefix("[Errno 28] "))
 
 
 @contextmanager
 def archive_errors() -> Iterator[None]:
-    """Turn archive lookups that fail (unknown run or ball, bad filter) into clean exits."""
+    """Turn archive lookups and writes that fail (unknown run or ball, bad filter, a damaged
+    run, a full disk) into one clear line and an exit code."""
     from pydantic import ValidationError
 
-    from bowlrec.archive import BallNotFoundError, RunNotFoundError
+    from bowlrec.archive import (
+        ArchiveError,
+        ArchiveWriteError,
+        BallNotFoundError,
+        RunDamagedError,
+        RunNotFoundError,
+    )
     from bowlrec.sinks import SamplesRequiredError
     from bowlrec.spec import format_validation_error
 
     try:
         yield
-    except (RunNotFoundError, BallNotFoundError) as err:
+    except (RunNotFoundError, BallNotFoundError, RunDamagedError, ArchiveError) as err:
+        fail(str(err), code=1)
+    except ArchiveWriteError as err:
         fail(str(err), code=1)
     except ValidationError as err:
         fail(f"invalid spec\n{format_validation_error(err)}")

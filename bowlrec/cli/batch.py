@@ -129,6 +129,13 @@ def batch(
             typer.echo(f"table: {p}", err=True)
         if len(paths) == 1:
             typer.echo("note: install pyarrow for the Parquet table", err=True)
+    if result.error is not None:
+        typer.echo(
+            f"error: {result.error}; the {c['ok']} run(s) archived before it are kept and the "
+            "summary table was written; rerun the same command to do the rest",
+            err=True,
+        )
+        raise typer.Exit(1)
     if result.cancelled:
         typer.echo(
             f"interrupted: {c['ok']} finished runs were added to {store.root}; rerun the same "

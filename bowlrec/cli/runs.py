@@ -1,4 +1,5 @@
-"""Archive commands: ``runs list|show|export|rm|reindex|repair``, ``replay`` and ``plot``."""
+"""Archive commands: ``runs list|show|export|rm|reindex|repair|compact``, ``replay``, ``plot``
+and ``archive migrate|info``."""
 
 from __future__ import annotations
 
@@ -9,7 +10,14 @@ from typing import Annotated, Any
 import typer
 
 from ._app import app
-from ._common import ArchiveOption, JsonOption, archive_errors, fail, load_scene_or_exit
+from ._common import (
+    ArchiveOption,
+    JsonOption,
+    QuietOption,
+    archive_errors,
+    fail,
+    load_scene_or_exit,
+)
 from ._common import open_archive as _open
 from ._outputs import (
     ConnectOption,
@@ -22,6 +30,10 @@ from ._outputs import (
 
 runs_app = typer.Typer(help="List, show, export and remove archived runs.", no_args_is_help=True)
 app.add_typer(runs_app, name="runs")
+archive_app = typer.Typer(
+    help="The archive as a whole: format migration, summary.", no_args_is_help=True
+)
+app.add_typer(archive_app, name="archive")
 
 #: columns of the ``runs list`` table (the index has more; --json prints all of them)
 LIST_COLUMNS = ("run_id", "name", "ball", "pattern", "outcome", "slide_m", "hook_m", "pocket_deg")
@@ -61,10 +73,26 @@ def list_runs(
         str, typer.Option(help="Index column to sort by ('-' prefix: descending).")
     ] = "created_at",
     limit: Annotated[int | None, typer.Option(help="At most this many rows.")] = None,
+    damaged: Annotated[
+        bool,
+        typer.Option(
+            "--damaged", help="List the damaged copies of runs found so far (see `runs repair`)."
+        ),
+    ] = False,
     as_json: JsonOption = False,
 ) -> None:
-    """List archived runs (reads only the index, not the run files)."""
+    """List archived runs (reads only the index, not the segment files)."""
     store = _open(archive, create=False)
+    if damaged:
+        with archive_errors():
+            items = store.damaged()
+        if as_json:
+            typer.echo(json.dumps(items, indent=2))
+            return
+        for item in items:
+            typer.echo(f"{item['run_id']}  segment {item['segment_id']}: {item['reason']}")
+        typer.echo(f"{len(items)} damaged run copies in {store.root}", err=True)
+        return
     with archive_errors():
         rows = store.list_runs(
             ball=ball,
@@ -196,16 +224,117 @@ def remove(
 
 @runs_app.command("reindex")
 def reindex(archive: ArchiveOption = None) -> None:
-    """Rebuild the index from the run files (they are the source of truth)."""
+    """Rebuild the index from the data files (segments, ball files, tombstones); readers see
+    the old index until the new one replaces it whole."""
     store = _open(archive, create=False)
-    typer.echo(f"{store.reindex()} run(s) indexed in {store.root}")
+    with archive_errors():
+        typer.echo(f"{store.reindex()} run(s) indexed in {store.root}")
 
 
 @runs_app.command("repair")
-def repair(archive: ArchiveOption = None) -> None:
-    """Clean up after killed writers: temporaries, unindexed files, rows without files."""
+def repair(archive: ArchiveOption = None, as_json: JsonOption = False) -> None:
+    """Check every stored run against its checksum and the index against the segments.
+
+    Damaged segments move to ARCHIVE/quarantine/ (their healthy runs are rewritten to a new
+    segment); damaged runs are named here and by `runs list --damaged`. Also finishes what
+    killed writers left. Exit code 1 when damage was found.
+    """
     store = _open(archive, create=False)
-    typer.echo(json.dumps(store.repair()))
+    with archive_errors():
+        report = store.repair()
+    if as_json:
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        typer.echo(
+            f"checked {report['runs_checked']} run(s) in {report['segments_checked']} "
+            f"segment(s) in {report['seconds']:.1f} s; {len(report['damaged_runs'])} damaged, "
+            f"{len(report['quarantined_segments'])} segment(s) quarantined; "
+            f"{report['segments_registered']} unregistered segment(s) indexed, "
+            f"{report['temporaries_removed']} temporaries removed"
+        )
+        for item in report["damaged_runs"]:
+            typer.echo(
+                f"damaged: {item['run_id']} (segment {item['segment_id']}): {item['reason']}"
+            )
+    if report["damaged_runs"]:
+        raise typer.Exit(1)
+
+
+@runs_app.command("compact")
+def compact(
+    archive: ArchiveOption = None,
+    target_runs: Annotated[
+        int, typer.Option("--target-runs", min=1, help="Runs per rewritten segment, at most.")
+    ] = 10_000,
+) -> None:
+    """Reclaim the space of removed and duplicate runs and merge small segments (segments are
+    rewritten into new files, never in place)."""
+    store = _open(archive, create=False)
+    with archive_errors():
+        report = store.compact(target_runs=target_runs)
+    typer.echo(
+        f"{report['segments_rewritten']} segment(s) rewritten into {report['segments_written']}"
+        f" ({report['runs_moved']} run(s) moved, {report['tombstone_files_deleted']} tombstone "
+        "file(s) applied and deleted)"
+    )
+
+
+@archive_app.command("migrate")
+def migrate(
+    archive: Annotated[Path, typer.Argument(help="Archive directory (format 1.0).")],
+    quiet: QuietOption = False,
+) -> None:
+    """Convert a format 1.0 archive (one file per run) to format 2.0 in place.
+
+    Run IDs stay the same. The 1.0 files are kept in ARCHIVE/v1-archive/ (delete it once the
+    migrated archive looks right); a migration that was interrupted resumes when run again.
+    """
+    from bowlrec.archive.migrate import MigrationError
+    from bowlrec.archive.migrate import migrate as run_migration
+
+    from ._common import interactive
+
+    try:
+        if interactive(quiet):
+            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+            with Progress(
+                "migrating run files", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()
+            ) as bar:
+                task = bar.add_task("migrate", total=None)
+                report = run_migration(
+                    archive,
+                    progress=lambda done, total: bar.update(task, completed=done, total=total),
+                )
+        else:
+            report = run_migration(archive)
+    except MigrationError as err:
+        fail(str(err))
+    if "already" in report:
+        typer.echo(f"{archive} is already format {report['already']} ({report['runs']} runs)")
+        return
+    typer.echo(
+        f"{archive}: format {report['from']} -> {report['to']}: {report['runs']} run(s) in "
+        f"{report['segments']} segment(s), {report['balls']} ball version(s); the 1.0 files "
+        f"are kept in {report['v1_files_kept_in']}"
+    )
+    for item in report["unreadable_run_files"]:
+        typer.echo(f"not migrated (unreadable): {item}", err=True)
+    if report["unreadable_run_files"]:
+        raise typer.Exit(1)
+
+
+@archive_app.command("info")
+def info(archive: ArchiveOption = None, as_json: JsonOption = False) -> None:
+    """Format, run and segment counts, sizes on disk and damage found so far."""
+    store = _open(archive, create=False)
+    with archive_errors():
+        summary = store.info()
+    if as_json:
+        typer.echo(json.dumps(summary, indent=2))
+        return
+    for key, value in summary.items():
+        typer.echo(f"{key}: {value}")
 
 
 @app.command()

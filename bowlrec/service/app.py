@@ -2,7 +2,9 @@
 
 Errors the service raises itself are ``{"detail": "<message>"}``: 401 (missing or wrong bearer
 token), 404 (unknown run, ball or job), 409 (the request conflicts with the state: replay of a
-summary-only run, job not cancellable/resumable), 422 (an invalid scene, ball or job spec -- one
+summary-only run, a stored run found damaged -- the message names the run and its segment; `bowlrec
+runs repair` quarantines it --, job not cancellable/resumable), 507 (the archive could not be
+written, e.g. a full disk; nothing stored was lost), 422 (an invalid scene, ball or job spec -- one
 ``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
 -- or a bad run filter), 501 (an optional format library is not installed). Malformed requests
 that FastAPI rejects before they reach the service (a body that is not JSON, a query parameter of
@@ -25,7 +27,13 @@ from fastapi.responses import FileResponse, JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
 
-from bowlrec.archive import Archive, BallNotFoundError, RunNotFoundError
+from bowlrec.archive import (
+    Archive,
+    ArchiveWriteError,
+    BallNotFoundError,
+    RunDamagedError,
+    RunNotFoundError,
+)
 from bowlrec.archive.index import IndexError_
 
 from .jobs import JobConflictError, JobManager, JobNotFoundError
@@ -58,7 +66,7 @@ FILE_KINDS: dict[str, tuple[str, str]] = {
 FileKind = Literal["hdf5", "mcap", "rrd"]
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorResponse} for code in (401, 404, 409, 422, 501)
+    code: {"model": ErrorResponse} for code in (401, 404, 409, 422, 501, 507)
 }
 
 SCENE_EXAMPLE = {
@@ -233,19 +241,15 @@ def get_run(state: StateDep, run_id: str) -> RunRow:
 @runs.get("/{run_id}/spec", response_model=dict[str, Any])
 def get_spec(state: StateDep, run_id: str) -> dict[str, Any]:
     """The scene as archived (physical scene JSON; POSTing it back gives the same run ID)."""
-    from bowlrec.sinks.hdf5_run import read_run_header
-    from bowlrec.spec import Scene
-
     rid = _resolve(state, run_id)
-    attrs = read_run_header(state.archive.run_path(rid))
-    scene = Scene.model_validate_json(attrs["scene_json"])
-    spec: dict[str, Any] = scene.model_dump(mode="json")
+    spec: dict[str, Any] = state.archive.load(rid).scene.model_dump(mode="json")
     return spec
 
 
-def _cached_replay(state: _State, rid: str, kind: str) -> Path:
-    """The MCAP or RRD file of a run, generated once into ``ARCHIVE/cache/<kind>/`` (the
-    writers rename a complete file into place, so readers never see a partial one)."""
+def _cached_file(state: _State, rid: str, kind: str) -> Path:
+    """The run's one-run HDF5 file, MCAP or RRD, generated once into ``ARCHIVE/cache/<kind>/``
+    from the run's checked bytes (the writers rename a complete file into place, so readers
+    never see a partial one)."""
     from bowlrec.sinks.common import SamplesRequiredError
 
     suffix = FILE_KINDS[kind][0]
@@ -253,6 +257,8 @@ def _cached_replay(state: _State, rid: str, kind: str) -> Path:
     with state.file_lock(path):
         if path.exists():
             return path
+        if kind == "hdf5":
+            return state.archive.export(rid, path)
         run = state.archive.run_data(rid)
         try:
             if kind == "mcap":
@@ -274,15 +280,13 @@ def _cached_replay(state: _State, rid: str, kind: str) -> Path:
     responses={200: {"content": {"application/octet-stream": {}, "application/x-hdf5": {}}}},
 )
 def get_file(state: StateDep, run_id: str, kind: FileKind) -> FileResponse:
-    """The run's HDF5 file (``hdf5``, the archived run file itself), or its replay as MCAP
-    (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first request and cached
-    in the archive. 409 for a summary-only run (no samples to replay)."""
+    """The run as a self-contained one-run HDF5 file (``hdf5``, format ``bowlrec-run``), or
+    its replay as MCAP (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first
+    request and cached in the archive. 409 for a summary-only run (no samples to replay) or a
+    run found damaged."""
     rid = _resolve(state, run_id)
     try:
-        if kind == "hdf5":
-            path = state.archive.run_path(rid)
-        else:
-            path = _cached_replay(state, rid, kind)
+        path = _cached_file(state, rid, kind)
     except ImportError as err:
         extra = "mcap" if kind == "mcap" else "rerun"
         raise _bad(501, f"{kind} export needs bowlrec[{extra}] on the server: {err}") from None
@@ -496,5 +500,13 @@ def create_app(
     @app.exception_handler(SpecError)
     async def _spec_error(request: Request, err: SpecError) -> JSONResponse:
         return JSONResponse({"detail": str(err)}, status_code=422)
+
+    @app.exception_handler(RunDamagedError)
+    async def _damaged(request: Request, err: RunDamagedError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=409)
+
+    @app.exception_handler(ArchiveWriteError)
+    async def _unwritable(request: Request, err: ArchiveWriteError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=507)
 
     return app

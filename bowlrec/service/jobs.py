@@ -149,7 +149,8 @@ class JobRecord:
 
     def archived(self, archive: Archive) -> int:
         """Runs of this job that are in the archive (duplicates counted per run)."""
-        return sum(1 for r in self.run_ids if r is not None and archive.has_run(r))
+        present = archive.rows(r for r in self.run_ids if r is not None)
+        return sum(1 for r in self.run_ids if r is not None and r in present)
 
 
 class JobManager:
@@ -202,9 +203,9 @@ class JobManager:
             ) from None
         self._lock_file = fh
         remove_stale_parts(self.dir)
-        # a server killed between writing a run file and committing its index row leaves a file
-        # the index does not list: index it now, before ``done`` is recounted from the files
-        repaired = self.archive.repair()
+        # a server killed between sealing a segment and registering it leaves a segment the
+        # index does not list: index it now, before ``done`` is recounted from the index
+        repaired = self.archive.recover()
         if any(repaired.values()):
             log.info("archive repaired after an unclean stop: %s", repaired)
         for path in sorted(self.dir.glob("*.json")):

@@ -80,6 +80,8 @@ class RunRow(BaseModel):
     model_config = ConfigDict(extra="allow")
 
     run_id: str
+    segment_id: str | None = Field(default=None, description="The segment holding the run.")
+    row: int | None = Field(default=None, description="The run's row in its segment.")
     name: str | None = None
     created_at: str | None = None
     ball_name: str | None = None
@@ -108,7 +110,9 @@ class RunRow(BaseModel):
     wall_time_s: float | None = None
     physics_version: str | None = None
     bowlrec_version: str | None = None
-    path: str | None = Field(default=None, description="Run file, relative to the archive.")
+    path: str | None = Field(
+        default=None, description="Segment file holding the run, relative to the archive."
+    )
 
 
 class RunList(BaseModel):

@@ -2,13 +2,17 @@
 
 A reader (or a process that restarts after ``kill -9``) sees either the previous file or the new
 complete one under the final name, never a partial file. Leftover temporaries carry the
-``.part`` suffix and a leading dot; :func:`remove_stale_parts` deletes them.
+``.part`` suffix and a leading dot; :func:`remove_stale_parts` deletes them. With
+``hold_lock`` the writer holds an exclusive ``flock`` on its temporary until it is renamed, so a
+cleanup running in another process never deletes a temporary that is still being written.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import os
+import time
 import uuid
 from collections.abc import Iterator
 from pathlib import Path
@@ -31,16 +35,24 @@ def fsync_dir(directory: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(final: str | os.PathLike[str], *, durable: bool = True) -> Iterator[Path]:
+def atomic_path(
+    final: str | os.PathLike[str], *, durable: bool = True, hold_lock: bool = False
+) -> Iterator[Path]:
     """Yield a temporary path next to ``final``; on success it is renamed to ``final``.
 
     The writer inside the ``with`` block must close the file it wrote. On an exception the
     temporary is removed and ``final`` is untouched. ``durable`` fsyncs the file and the
-    directory so the rename survives a power loss, not only a killed process.
+    directory so the rename survives a power loss, not only a killed process. ``hold_lock``
+    creates the temporary (empty) and holds an exclusive flock on it until the rename (see
+    :func:`remove_stale_parts`); the writer then opens it for writing and truncates it.
     """
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.with_name(f".{final.name}.{uuid.uuid4().hex[:8]}{PART_SUFFIX}")
+    lock_fd = -1
+    if hold_lock:
+        lock_fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        fcntl.flock(lock_fd, fcntl.LOCK_EX)
     try:
         yield tmp
         if durable:
@@ -56,13 +68,40 @@ def atomic_path(final: str | os.PathLike[str], *, durable: bool = True) -> Itera
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
         raise
+    finally:
+        if lock_fd >= 0:
+            os.close(lock_fd)
 
 
-def remove_stale_parts(directory: Path) -> int:
-    """Delete temporaries left by killed writers under ``directory`` (recursively); the count."""
+def _unlocked(path: Path) -> bool:
+    """True when no process holds a flock on ``path`` (a killed writer's lock is gone)."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False
+    finally:
+        os.close(fd)
+    return True
+
+
+def remove_stale_parts(directory: Path, *, min_age_s: float = 0.0) -> int:
+    """Delete temporaries left by killed writers under ``directory`` (recursively); the count.
+
+    A temporary younger than ``min_age_s`` seconds, or locked by its writer (``hold_lock``),
+    is left alone: it may belong to a writer that is still running.
+    """
     n = 0
+    now = time.time()
     for p in directory.rglob(f".*{PART_SUFFIX}"):
         with contextlib.suppress(FileNotFoundError):
+            if min_age_s > 0 and now - p.stat().st_mtime < min_age_s:
+                continue
+            if not _unlocked(p):
+                continue
             p.unlink()
             n += 1
     return n

@@ -129,6 +129,12 @@ class GridFriction(SpecModel):
     source: str | None = Field(
         default=None, description="Free text: where the map comes from (e.g. an oil pattern)."
     )
+    pattern: str | None = Field(
+        default=None,
+        description="Name of the oil pattern the map was made from (a preset name such as "
+        "'kegel_chromium_6742', or a pattern sheet's name); archives index runs by it. A label: "
+        "it does not change the physics or the run ID.",
+    )
 
     @field_validator("x_edges_m", "y_edges_m")
     @classmethod

@@ -1,0 +1,160 @@
+"""``runs compact``: rewrite segments that hold dead copies (removed, damaged, duplicate) and
+merge small segments (one-run segments of interactive use) into segments of up to
+``target_runs`` runs. Nothing is rewritten in place.
+
+Order (a kill at any point loses nothing and brings no removed run back):
+1. the live runs of the chosen segments are written to new sealed segments;
+2. one index transaction registers the new segments and drops the old ones;
+3. the old files are deleted; then their tombstones (in the index and the tombstone files).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from datetime import UTC, datetime
+from typing import TYPE_CHECKING, Any
+
+from .index import transaction
+from .registry import register_segment
+from .segment import SegmentBuilder, SegmentInfo
+from .segment_file import RunDamagedError, SegmentError, SegmentFile
+from .tombstones import TOMBSTONE_FORMAT, Tombstone, read_tombstones
+
+if TYPE_CHECKING:
+    from .store import Archive
+
+__all__ = ["compact"]
+
+
+def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
+    """(segment ID, path, provenance JSON) of the segments worth rewriting."""
+    live = dict(con.execute("SELECT segment_id, COUNT(*) FROM runs GROUP BY segment_id"))
+    dead = {r[0] for r in con.execute("SELECT segment_id FROM tombstones")}
+    dead |= {r[0] for r in con.execute("SELECT segment_id FROM shadowed")}
+    rows = con.execute("SELECT segment_id, path, n_runs, provenance_json FROM segments").fetchall()
+    small = [r for r in rows if live.get(r[0], 0) < target_runs // 4]
+    chosen = {r[0] for r in rows if r[0] in dead or live.get(r[0], 0) < r[2]}
+    if len(small) > 1:
+        chosen |= {r[0] for r in small}
+    return [(r[0], r[1], r[3]) for r in rows if r[0] in chosen]
+
+
+def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
+    """Rewrite and merge segments (see the module doc); counts of what was done."""
+    with archive.writer_lock():
+        con = archive.index_writer()
+        chosen = _candidates(con, target_runs)
+        groups: dict[str, list[tuple[str, str]]] = defaultdict(list)
+        for seg_id, rel, prov in chosen:
+            groups[prov].append((seg_id, rel))
+        sealed: list[SegmentInfo] = []
+        damaged: list[tuple[str, str, str]] = []
+        moved = 0
+        for prov, members in groups.items():
+            provenance = {
+                k: v
+                for k, v in json.loads(prov).items()
+                if k not in ("format", "format_version", "segment_id", "n_runs")
+            }
+            builder = SegmentBuilder(provenance)
+            for seg_id, rel in sorted(members):
+                rows = con.execute(
+                    "SELECT row FROM runs WHERE segment_id = ? ORDER BY row", (seg_id,)
+                ).fetchall()
+                try:
+                    with SegmentFile(archive.root / rel) as seg:
+                        for (row,) in rows:
+                            try:
+                                builder.append(seg.read_run(int(row)).to_record())
+                                moved += 1
+                            except RunDamagedError as err:
+                                damaged.append((seg_id, err.run_id, f"damaged: {err.reason}"))
+                            if len(builder) >= target_runs:
+                                sealed.append(builder.seal(archive.segments_dir))
+                                builder = SegmentBuilder(provenance)
+                except (SegmentError, OSError):
+                    continue  # left for `runs repair`, which quarantines it
+            if len(builder):
+                sealed.append(builder.seal(archive.segments_dir))
+        old = [(s, r) for s, r, _ in chosen]
+        with transaction(con, write=True):
+            for seg_id, _ in old:
+                con.execute("DELETE FROM runs WHERE segment_id = ?", (seg_id,))
+                con.execute("DELETE FROM shadowed WHERE segment_id = ?", (seg_id,))
+                con.execute("DELETE FROM segments WHERE segment_id = ?", (seg_id,))
+            for info in sealed:
+                register_segment(con, info.path, str(info.path.relative_to(archive.root)))
+            for seg_id, rid, reason in damaged:
+                con.execute(
+                    "INSERT OR REPLACE INTO damaged (segment_id, run_id, reason, detected_at) "
+                    "VALUES (?, ?, ?, ?)",
+                    (seg_id, rid, reason, _now()),
+                )
+        for _, rel in old:
+            (archive.root / rel).unlink(missing_ok=True)
+        dropped = _drop_applied_tombstones(archive, con)
+    return {
+        "segments_rewritten": len(old),
+        "segments_written": len(sealed),
+        "runs_moved": moved,
+        "runs_damaged": len(damaged),
+        "tombstone_files_deleted": dropped,
+    }
+
+
+def _now() -> str:
+    return datetime.now(UTC).isoformat(timespec="seconds")
+
+
+def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
+    """Damaged copies outlive their tombstones as quarantine reports (``runs list --damaged``
+    still lists them after an index rebuild)."""
+    from bowlrec.sinks.atomic import atomic_path
+
+    from .repair import QUARANTINE_FORMAT
+
+    by_segment: dict[str, list[Tombstone]] = defaultdict(list)
+    for e in entries:
+        if e.reason.startswith("damaged"):
+            by_segment[e.segment_id].append(e)
+    archive.quarantine_dir.mkdir(exist_ok=True)
+    for seg_id, items in by_segment.items():
+        report = {
+            "format": QUARANTINE_FORMAT,
+            "segment_id": seg_id,
+            "at": _now(),
+            "damaged": [{"run_id": e.run_id, "reason": e.reason} for e in items],
+            "salvaged_into": None,
+            "salvaged_runs": 0,
+        }
+        target = archive.quarantine_dir / f"{seg_id}.compacted.json"
+        with atomic_path(target) as tmp:
+            tmp.write_text(json.dumps(report, indent=1) + "\n")
+
+
+def _drop_applied_tombstones(archive: Archive, con: Any) -> int:
+    """Delete tombstones of segments that no longer exist (index rows and files)."""
+    from bowlrec.sinks.atomic import atomic_path
+
+    existing = {p.stem for p in archive.segments_dir.glob("*.h5")}
+    deleted = 0
+    with transaction(con, write=True):
+        con.execute(
+            "DELETE FROM tombstones WHERE segment_id NOT IN (SELECT segment_id FROM segments)"
+        )
+    for path, entries in list(read_tombstones(archive.tombstones_dir)):
+        keep = [e for e in entries if e.segment_id in existing]
+        if len(keep) == len(entries):
+            continue
+        _keep_damage_records(archive, [e for e in entries if e.segment_id not in existing])
+        if keep:
+            doc = {"format": TOMBSTONE_FORMAT, "entries": [e.__dict__ for e in keep]}
+            with atomic_path(path, hold_lock=True) as tmp:
+                tmp.write_text(json.dumps(doc) + "\n")
+        else:
+            path.unlink(missing_ok=True)
+            with transaction(con, write=True):
+                con.execute("DELETE FROM tombstone_files WHERE name = ?", (path.name,))
+            deleted += 1
+    return deleted

@@ -1,0 +1,144 @@
+"""Registering sealed segments in the index: their runs become index rows in one transaction.
+
+The first copy of a run ID to be registered is the live one; later copies of the same ID (two
+writers that simulated the same scene at once) are recorded as ``shadowed`` and dropped by
+compaction. Copies a tombstone names are skipped. Registering a segment twice is a no-op.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .index import RUN_TABLE_COLUMNS
+from .segment import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS
+from .segment_file import SegmentFile
+
+__all__ = ["INSERT_RUN", "index_rows", "register_segment", "segment_row"]
+
+INSERT_RUN = (
+    f"INSERT INTO runs ({', '.join(RUN_TABLE_COLUMNS)}) "
+    f"VALUES ({', '.join('?' for _ in RUN_TABLE_COLUMNS)})"
+)
+
+
+def _texts(arr: Any) -> list[str]:
+    return [b.decode() for b in arr.tolist()]
+
+
+def _floats(arr: Any) -> list[float | None]:
+    return [None if v != v else v for v in arr.tolist()]  # NaN stands for None
+
+
+def iso_times(ns: Any) -> list[str]:
+    """ISO 8601 UTC strings with microseconds ("...T16:42:11.123456+00:00") of epoch ns."""
+    text = np.datetime_as_string(np.asarray(ns, dtype="datetime64[ns]").astype("datetime64[us]"))
+    return [t + "+00:00" for t in text.tolist()]
+
+
+def _ball_parts(refs: list[str]) -> tuple[list[str | None], list[int | None]]:
+    cache: dict[str, tuple[str | None, int | None]] = {}
+    for ref in set(refs):
+        name, _, version = ref.rpartition("@")
+        cache[ref] = (name, int(version)) if name and version.isdigit() else (None, None)
+    return [cache[r][0] for r in refs], [cache[r][1] for r in refs]
+
+
+def index_rows(segment_id: str, cols: dict[str, Any]) -> list[tuple[Any, ...]]:
+    """Rows of table ``runs`` (columns in :data:`RUN_TABLE_COLUMNS` order) from a segment's
+    index columns (:meth:`SegmentFile.index_columns`)."""
+    n = int(cols["run_id"].shape[0])
+    ball_name, ball_version = _ball_parts(_texts(cols["ball_ref"]))
+    values: dict[str, list[Any]] = {
+        "run_id": _texts(cols["run_id"]),
+        "segment_id": [segment_id] * n,
+        "row": list(range(n)),
+        "name": _texts(cols["name"]),
+        "created_at": iso_times(cols["created_at_ns"]),
+        "ball_name": ball_name,
+        "ball_version": ball_version,
+        "ball_sha": _texts(cols["ball_sha"]),
+        "pattern": _texts(cols["pattern"]),
+        "outcome": _texts(cols["outcome"]),
+        "n_samples": cols["n_samples"].tolist(),
+        "record": _texts(cols["record"]),
+        "solver": _texts(cols["solver"]),
+    }
+    for name in (*SUMMARY_FLOAT_COLUMNS, "speed_mps", "rev_rate_rpm", "mass_kg", "rtol"):
+        values[name] = _floats(cols[name])
+    values["wall_time_s"] = cols["wall_time_s"].tolist()
+    for name in SUMMARY_INT_COLUMNS:
+        values[name] = cols[name].tolist()
+    return list(zip(*(values[k] for k in RUN_TABLE_COLUMNS), strict=True))
+
+
+def segment_row(seg: SegmentFile, rel_path: str, size_bytes: int) -> tuple[Any, ...]:
+    """The ``segments`` table row of an open segment."""
+    skip = ("format", "format_version", "segment_id", "n_runs")  # not shared by other segments
+    prov = {
+        k: v
+        for k, v in seg.provenance.items()
+        if k not in skip and isinstance(v, str | int | float | bool)
+    }
+    return (
+        seg.segment_id,
+        rel_path,
+        seg.n_runs,
+        size_bytes,
+        prov.get("bowlrec_version"),
+        prov.get("physics_version"),
+        json.dumps(prov, sort_keys=True),
+    )
+
+
+def register_segment(
+    con: sqlite3.Connection,
+    path: Path,
+    rel_path: str,
+    *,
+    dead: Iterable[str] = (),
+) -> tuple[int, int]:
+    """Index the runs of the segment at ``path`` (inside the caller's write transaction).
+
+    ``dead``: run IDs of this segment that a tombstone names (skipped). Returns (runs now
+    indexed, copies shadowed by an already indexed run). Raises SegmentError for a file that
+    is not a readable segment.
+    """
+    with SegmentFile(path) as seg:
+        if con.execute(
+            "SELECT 1 FROM segments WHERE segment_id = ?", (seg.segment_id,)
+        ).fetchall():  # registered already (by a recovery in this or another process)
+            live = con.execute(
+                "SELECT COUNT(*) FROM runs WHERE segment_id = ?", (seg.segment_id,)
+            ).fetchall()[0][0]
+            shadowed = con.execute(
+                "SELECT COUNT(*) FROM shadowed WHERE segment_id = ?", (seg.segment_id,)
+            ).fetchall()[0][0]
+            return int(live), int(shadowed)
+        rows = index_rows(seg.segment_id, seg.index_columns())
+        con.execute(
+            "INSERT INTO segments VALUES (?, ?, ?, ?, ?, ?, ?)",
+            segment_row(seg, rel_path, path.stat().st_size),
+        )
+    dead_ids = set(dead)
+    rows = [r for r in rows if r[0] not in dead_ids]
+    existing: set[str] = set()
+    ids = [r[0] for r in rows]
+    for i in range(0, len(ids), 900):  # SQLite's default limit on bound parameters is 999
+        part = ids[i : i + 900]
+        marks = ", ".join("?" for _ in part)
+        existing.update(
+            r[0] for r in con.execute(f"SELECT run_id FROM runs WHERE run_id IN ({marks})", part)
+        )
+    fresh = [r for r in rows if r[0] not in existing]
+    con.executemany(INSERT_RUN, fresh)
+    con.executemany(
+        "INSERT OR IGNORE INTO shadowed (segment_id, run_id, row) VALUES (?, ?, ?)",
+        [(r[1], r[0], r[2]) for r in rows if r[0] in existing],
+    )
+    return len(fresh), len(rows) - len(fresh)

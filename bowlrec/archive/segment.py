@@ -1,0 +1,378 @@
+"""Segment files: many runs in one sealed HDF5 file (format ``bowlrec-segment`` 2.0).
+
+A segment holds the runs of one writer as columns: one dataset per quantity with the values of
+all its runs concatenated (``offsets`` datasets give each run's slice), the summary metrics and
+the index columns one dataset each, the scenes as gzip-compressed JSON bytes. What is the same
+for every run of the segment (the provenance: package versions, platform) is stored once, as
+root attributes. Layout and digests: ``docs/archive-format.md``.
+
+:class:`SegmentBuilder` collects runs in memory and :meth:`SegmentBuilder.seal` writes the file
+whole (temporary name, fsync, rename): a segment on disk is complete or absent. Sealed segments
+are never modified; removal and compaction are the index's and the maintenance module's work.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+import uuid
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowlrec.core.trajectory import Summary
+
+if TYPE_CHECKING:
+    from bowlrec.sinks.common import RunData
+
+__all__ = [
+    "EVENT_FIELDS",
+    "RUN_FLOAT_COLUMNS",
+    "RUN_STRING_COLUMNS",
+    "SEGMENT_FORMAT",
+    "SEGMENT_FORMAT_VERSION",
+    "SUMMARY_FLOAT_COLUMNS",
+    "SUMMARY_INT_COLUMNS",
+    "TRAJECTORY_FIELDS",
+    "RunRecord",
+    "SegmentBuilder",
+    "SegmentInfo",
+    "new_segment_id",
+    "run_digest",
+]
+
+SEGMENT_FORMAT = "bowlrec-segment"
+#: major.minor: readers accept every minor of their major (docs/archive-format.md)
+SEGMENT_FORMAT_VERSION = "2.0"
+
+#: summary metrics stored as float64 columns (NaN stands for None)
+SUMMARY_FLOAT_COLUMNS = (
+    "slide_m",
+    "hook_m",
+    "pocket_deg",
+    "time_s",
+    "x_end_m",
+    "y_end_m",
+    "speed_end_mps",
+    "rev_rate_end_rpm",
+)
+SUMMARY_INT_COLUMNS = ("n_steps", "n_rhs", "n_events")
+#: per-run index columns that are not summary metrics
+RUN_FLOAT_COLUMNS = ("speed_mps", "rev_rate_rpm", "mass_kg", "rtol", "wall_time_s")
+RUN_STRING_COLUMNS = ("run_id", "name", "ball_ref", "ball_sha", "pattern", "record", "solver")
+#: per-sample trajectory quantities (first axis = sample), in the digest's order
+TRAJECTORY_FIELDS = (
+    "alpha_radps2",
+    "energy_J",
+    "friction_force_N",
+    "mu",
+    "normal_force_N",
+    "omega_radps",
+    "phase",
+    "position_m",
+    "quaternion_wxyz",
+    "slip_mps",
+    "t_s",
+    "velocity_mps",
+)
+#: per-event columns; kind and phase are fixed-length UTF-8 strings
+EVENT_FIELDS = ("kind", "mu", "phase", "t_s", "x_m", "y_m")
+
+_GZIP: dict[str, Any] = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+
+
+def new_segment_id() -> str:
+    """A new segment ID that sorts by creation time: 16 hex digits of ns since the epoch, a
+    dash and 8 random hex digits (unique across processes and machines)."""
+    return f"{time.time_ns():016x}-{uuid.uuid4().hex[:8]}"
+
+
+@dataclass
+class RunRecord:
+    """One run as a segment stores it (everything plain: strings, floats, arrays).
+
+    ``scene_json`` is the scene as given (compact JSON); ``created_at_ns`` nanoseconds since
+    1970-01-01 UTC; the index columns (``speed_mps`` ... ``pattern``) are what the archive's
+    index lists without opening the segment.
+    """
+
+    run_id: str
+    scene_json: bytes
+    summary: Summary
+    name: str
+    ball_ref: str
+    ball_sha: str
+    pattern: str
+    record: str
+    solver: str
+    speed_mps: float
+    rev_rate_rpm: float
+    mass_kg: float
+    rtol: float
+    wall_time_s: float
+    created_at_ns: int
+    #: per-sample arrays by TRAJECTORY_FIELDS name (empty arrays for a summary-only run)
+    trajectory: dict[str, NDArray[Any]] = field(default_factory=dict)
+    #: per-term torques (n, 3) in N m, only when recorded
+    torques: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: events as (kind, mu, phase, t_s, x_m, y_m) tuples
+    events: list[tuple[str, float, str, float, float, float]] = field(default_factory=list)
+
+    @classmethod
+    def from_run(
+        cls,
+        run: RunData,
+        *,
+        wall_time_s: float,
+        ball_ref: str,
+        solver: str,
+        ball_sha: str,
+        pattern: str,
+        created_at_ns: int | None = None,
+    ) -> RunRecord:
+        """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set."""
+        assert run.run_id is not None, "a run needs its content ID before it is archived"
+        plan, traj = run.plan, run.trajectory
+        v, w = plan.velocity0_mps, plan.omega0_radps
+        return cls(
+            run_id=run.run_id,
+            scene_json=run.scene_json().encode(),
+            summary=traj.summary,
+            name=run.scene.name,
+            ball_ref=ball_ref,
+            ball_sha=ball_sha,
+            pattern=pattern,
+            record=run.scene.options.record,
+            solver=solver,
+            speed_mps=float(np.hypot(v[0], v[1])),
+            rev_rate_rpm=float(np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]))
+            * 60.0
+            / (2.0 * np.pi),
+            mass_kg=float(plan.mass_kg),
+            rtol=float(plan.rtol),
+            wall_time_s=float(wall_time_s),
+            created_at_ns=time.time_ns() if created_at_ns is None else created_at_ns,
+            trajectory={name: getattr(traj, name) for name in TRAJECTORY_FIELDS}
+            if traj.n_samples
+            else {},
+            torques=dict(traj.torques_Nm),
+            events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
+        )
+
+
+@dataclass(frozen=True)
+class SegmentInfo:
+    """A sealed segment: its ID, path and the IDs of its runs (in row order)."""
+
+    segment_id: str
+    path: Path
+    run_ids: tuple[str, ...]
+
+
+# -- digests -------------------------------------------------------------------------------------
+
+
+def _part(h: Any, data: bytes | memoryview) -> None:
+    h.update(len(data).to_bytes(8, "little"))
+    h.update(data)
+
+
+def run_digest(
+    fixed_row: bytes | memoryview,
+    scene: bytes | memoryview,
+    message: bytes | memoryview,
+    events: bytes | memoryview,
+    samples: bytes | memoryview,
+    torques: bytes | memoryview,
+) -> bytes:
+    """BLAKE2b-128 of one run's stored bytes (docs/archive-format.md, "Digests").
+
+    Each part is preceded by its length (8 bytes, little-endian): the run's row of the per-run
+    matrix, its scene JSON, its summary message, its rows of the event, sample and torque
+    matrices. Returns 32 hex digits as ASCII bytes.
+    """
+    h = hashlib.blake2b(digest_size=16)
+    for part in (fixed_row, scene, message, events, samples, torques):
+        _part(h, part)
+    return h.hexdigest().encode()
+
+
+def row_matrix(columns: Sequence[NDArray[Any]], n: int) -> NDArray[np.uint8]:
+    """The columns' raw bytes side by side: row i holds every column's i-th entry (n, width)."""
+    if not columns:
+        return np.zeros((n, 0), dtype=np.uint8)
+    parts = []
+    for c in columns:
+        arr = np.ascontiguousarray(c)
+        width = int(np.prod(arr.shape[1:], dtype=np.int64)) * arr.dtype.itemsize
+        parts.append(arr.reshape(-1).view(np.uint8).reshape(n, width))
+    return np.ascontiguousarray(np.hstack(parts))
+
+
+def fixed_columns(runs: dict[str, NDArray[Any]], summary: dict[str, NDArray[Any]]) -> list[Any]:
+    """The fixed-width per-run columns in digest order: runs/* then summary/* (names sorted),
+    without runs/digest."""
+    cols = [runs[k] for k in sorted(runs) if k != "digest"]
+    cols += [summary[k] for k in sorted(summary)]
+    return cols
+
+
+def event_columns(events: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
+    return [events[k] for k in EVENT_FIELDS]
+
+
+def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
+    return [trajectory[k] for k in TRAJECTORY_FIELDS if k in trajectory]
+
+
+def _strings(values: Iterable[str]) -> NDArray[np.bytes_]:
+    """UTF-8 fixed-length strings (numpy 'S' of the longest entry, at least 1 byte)."""
+    encoded = [v.encode() for v in values]
+    width = max((len(b) for b in encoded), default=1) or 1
+    return np.array(encoded, dtype=f"S{width}")
+
+
+def _concat(chunks: Sequence[bytes]) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+    offsets = np.zeros(len(chunks) + 1, dtype=np.int64)
+    np.cumsum([len(c) for c in chunks], out=offsets[1:])
+    return np.frombuffer(b"".join(chunks), dtype=np.uint8).copy(), offsets
+
+
+# -- the builder ---------------------------------------------------------------------------------
+
+
+class SegmentBuilder:
+    """Collects runs, then writes them as one sealed segment (:meth:`seal`).
+
+    ``provenance``: the attributes shared by every run (see
+    :func:`bowlrec.archive.provenance.environment`). A run ID appended twice is stored once.
+    Any process may build and seal segments; registering them in the index is
+    :meth:`bowlrec.archive.Archive.register`'s work.
+    """
+
+    def __init__(self, provenance: dict[str, Any]) -> None:
+        self.provenance = dict(provenance)
+        self.records: list[RunRecord] = []
+        self._ids: set[str] = set()
+
+    def __len__(self) -> int:
+        return len(self.records)
+
+    def append(self, record: RunRecord) -> bool:
+        """Add a run; False (nothing added) when its run ID is already in this segment."""
+        if record.run_id in self._ids:
+            return False
+        if record.torques and self.records:
+            terms = next((list(r.torques) for r in self.records if r.torques), None)
+            if terms is not None and terms != list(record.torques):
+                raise ValueError(
+                    f"run {record.run_id}: torque terms {list(record.torques)} differ from the "
+                    f"segment's {terms}; seal the segment first"
+                )
+        self._ids.add(record.run_id)
+        self.records.append(record)
+        return True
+
+    def columns(self) -> dict[str, Any]:
+        """Every dataset of the segment by group and name (digests included)."""
+        recs = self.records
+        n = len(recs)
+        runs: dict[str, NDArray[Any]] = {}
+        for name in RUN_STRING_COLUMNS:
+            runs[name] = _strings(getattr(r, name) for r in recs)
+        for name in RUN_FLOAT_COLUMNS:
+            runs[name] = np.array([getattr(r, name) for r in recs], dtype=np.float64)
+        runs["created_at_ns"] = np.array([r.created_at_ns for r in recs], dtype=np.int64)
+        summary: dict[str, NDArray[Any]] = {"outcome": _strings(r.summary.outcome for r in recs)}
+        for name in SUMMARY_FLOAT_COLUMNS:
+            values = [getattr(r.summary, name) for r in recs]
+            summary[name] = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+        for name in SUMMARY_INT_COLUMNS:
+            summary[name] = np.array([getattr(r.summary, name) for r in recs], dtype=np.int64)
+        scene_bytes, scene_offsets = _concat([r.scene_json for r in recs])
+        message_bytes, message_offsets = _concat([r.summary.message.encode() for r in recs])
+        events = self._events()
+        trajectory, traj_offsets = self._samples()
+        torques, torque_offsets, terms = self._torques()
+        fixed = row_matrix(fixed_columns(runs, summary), n)
+        ev_m = row_matrix(event_columns(events), int(events["t_s"].shape[0]))
+        smp_m = row_matrix(sample_columns(trajectory), int(traj_offsets[-1]))
+        tq_m = row_matrix([torques[t] for t in terms], int(torque_offsets[-1]))
+        digests = [
+            run_digest(
+                fixed[i].data,
+                scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
+                message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
+                ev_m[events["offsets"][i] : events["offsets"][i + 1]].data,
+                smp_m[traj_offsets[i] : traj_offsets[i + 1]].data,
+                tq_m[torque_offsets[i] : torque_offsets[i + 1]].data,
+            )
+            for i in range(n)
+        ]
+        runs["digest"] = np.array(digests, dtype="S32")
+        runs["scene_json"] = scene_bytes
+        runs["scene_json_offsets"] = scene_offsets
+        summary["message"] = message_bytes
+        summary["message_offsets"] = message_offsets
+        trajectory["offsets"] = traj_offsets
+        torques["offsets"] = torque_offsets
+        return {
+            "runs": runs,
+            "summary": summary,
+            "events": events,
+            "trajectory": trajectory,
+            "torques": torques,
+            "_terms": np.array([t.encode() for t in terms], dtype="S64"),
+        }
+
+    def _events(self) -> dict[str, NDArray[Any]]:
+        rows = [e for r in self.records for e in r.events]
+        offsets = np.zeros(len(self.records) + 1, dtype=np.int64)
+        np.cumsum([len(r.events) for r in self.records], out=offsets[1:])
+        cols = list(zip(*rows, strict=True)) if rows else [()] * len(EVENT_FIELDS)
+        out: dict[str, NDArray[Any]] = {}
+        for name, values in zip(EVENT_FIELDS, cols, strict=True):
+            if name in ("kind", "phase"):
+                out[name] = _strings(values) if values else np.zeros(0, dtype="S1")
+            else:
+                out[name] = np.array(values, dtype=np.float64)
+        out["offsets"] = offsets
+        return out
+
+    def _samples(self) -> tuple[dict[str, NDArray[Any]], NDArray[np.int64]]:
+        lengths = [int(r.trajectory["t_s"].shape[0]) if r.trajectory else 0 for r in self.records]
+        offsets = np.zeros(len(self.records) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=offsets[1:])
+        recorded = [r.trajectory for r in self.records if r.trajectory]
+        out: dict[str, NDArray[Any]] = {}
+        if recorded:
+            for name in TRAJECTORY_FIELDS:
+                out[name] = np.concatenate([t[name] for t in recorded])
+        return out, offsets
+
+    def _torques(self) -> tuple[dict[str, NDArray[Any]], NDArray[np.int64], list[str]]:
+        with_torques = [r for r in self.records if r.torques]
+        terms = list(with_torques[0].torques) if with_torques else []
+        lengths = [
+            int(next(iter(r.torques.values())).shape[0]) if r.torques else 0 for r in self.records
+        ]
+        offsets = np.zeros(len(self.records) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=offsets[1:])
+        out = {t: np.concatenate([r.torques[t] for r in with_torques]) for t in terms}
+        return out, offsets, terms
+
+    def seal(self, directory: str | os.PathLike[str], *, durable: bool = True) -> SegmentInfo:
+        """Write the segment under ``directory`` whole or not at all; its info."""
+        from .segment_file import write_segment
+
+        if not self.records:
+            raise ValueError("a segment needs at least one run")
+        segment_id = new_segment_id()
+        path = Path(directory) / f"{segment_id}.h5"
+        write_segment(path, segment_id, self.columns(), self.provenance, durable=durable)
+        return SegmentInfo(segment_id, path, tuple(r.run_id for r in self.records))

@@ -1,0 +1,412 @@
+"""Writing and reading segment files (HDF5, default ``libver``, gzip + shuffle).
+
+:func:`write_segment` writes the datasets :meth:`~bowlrec.archive.segment.SegmentBuilder.columns`
+made, whole or not at all. :class:`SegmentFile` reads them back: the index columns of every run
+at once (registration, index rebuilds), one run with its digest checked (:meth:`read_run`), or
+every run's digest (:meth:`verify`). A run whose bytes do not match its digest raises
+:class:`RunDamagedError`, which names the run and the segment; other runs read as usual.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+from numpy.typing import NDArray
+
+from bowlrec.core.trajectory import Event, Summary, Trajectory
+from bowlrec.sinks.atomic import atomic_path
+from bowlrec.sinks.units import DIMENSIONLESS, units_for
+
+from .segment import (
+    EVENT_FIELDS,
+    RUN_FLOAT_COLUMNS,
+    RUN_STRING_COLUMNS,
+    SEGMENT_FORMAT,
+    SEGMENT_FORMAT_VERSION,
+    SUMMARY_FLOAT_COLUMNS,
+    SUMMARY_INT_COLUMNS,
+    TRAJECTORY_FIELDS,
+    RunRecord,
+    event_columns,
+    fixed_columns,
+    row_matrix,
+    run_digest,
+    sample_columns,
+)
+
+__all__ = ["RunDamagedError", "SegmentError", "SegmentFile", "StoredRecord", "write_segment"]
+
+#: datasets whose values are text or bookkeeping: units "1" and what the values mean
+_MEANINGS = {
+    "run_id": "content ID (hex)",
+    "name": "scene name (UTF-8)",
+    "ball_ref": "library ball name@version, or empty (UTF-8)",
+    "ball_sha": "SHA-256 of the ball spec's canonical JSON (hex)",
+    "pattern": "oil pattern preset or friction kind (UTF-8)",
+    "record": "options.record: summary, steps or rate",
+    "solver": "integrator or closed_form",
+    "digest": "BLAKE2b-128 of the run's stored bytes (hex; docs/archive-format.md)",
+    "outcome": "how the run ended",
+    "scene_json": "scenes as given, compact JSON (UTF-8 bytes of all runs, concatenated)",
+    "message": "summary messages (UTF-8 bytes of all runs, concatenated)",
+    "offsets": "run i spans [offsets[i], offsets[i + 1]) of this group's datasets",
+    "scene_json_offsets": "run i's scene is scene_json[offsets[i]:offsets[i + 1]]",
+    "message_offsets": "run i's message is message[offsets[i]:offsets[i + 1]]",
+    "kind": "event kind",
+    "phase": "rolling or sliding after the event",
+    "n_steps": "accepted integrator steps (count)",
+    "n_rhs": "right-hand-side evaluations (count)",
+    "n_events": "events (count)",
+}
+
+
+class SegmentError(ValueError):
+    """A file is not a readable segment of a supported format version."""
+
+
+class RunDamagedError(ValueError):
+    """A stored run's bytes do not match its digest (or cannot be read)."""
+
+    def __init__(self, run_id: str, segment: str, reason: str) -> None:
+        super().__init__(
+            f"run {run_id} in segment {segment} is damaged ({reason}); "
+            "`bowlrec runs repair` quarantines it and keeps the healthy runs"
+        )
+        self.run_id, self.segment, self.reason = run_id, segment, reason
+
+
+def _units(group: str, name: str) -> tuple[str, str | None]:
+    if name in _MEANINGS and not (group == "trajectory" and name == "phase"):
+        return "1", _MEANINGS[name]
+    if name == "created_at_ns":
+        return "ns", "time since 1970-01-01T00:00:00 UTC"
+    if group == "torques":
+        return units_for("torque_Nm"), None
+    key = "phase" if (group == "trajectory" and name == "phase") else name
+    return units_for(key), DIMENSIONLESS.get(key)
+
+
+def write_segment(
+    path: Path,
+    segment_id: str,
+    columns: dict[str, Any],
+    provenance: dict[str, Any],
+    *,
+    durable: bool = True,
+) -> None:
+    """Write a segment file at ``path`` whole or not at all (see :mod:`bowlrec.archive.segment`)."""
+    terms = columns["_terms"]
+    n = int(columns["runs"]["run_id"].shape[0])
+    with (
+        atomic_path(path, durable=durable, hold_lock=True) as tmp,
+        h5py.File(tmp, "w", locking=False) as f,
+    ):
+        f.attrs["format"] = SEGMENT_FORMAT
+        f.attrs["format_version"] = SEGMENT_FORMAT_VERSION
+        f.attrs["segment_id"] = segment_id
+        f.attrs["n_runs"] = n
+        for key, value in provenance.items():
+            f.attrs[key] = value
+        for group_name in ("runs", "summary", "events", "trajectory", "torques"):
+            group = f.create_group(group_name)
+            for name, arr in columns[group_name].items():
+                data = np.asarray(arr)
+                opts = _GZIP if data.ndim >= 1 and data.size > 0 else {}
+                ds = group.create_dataset(name, data=data, **opts)
+                units, meaning = _units(group_name, name)
+                ds.attrs["units"] = units
+                if meaning:
+                    ds.attrs["meaning"] = meaning
+        f["torques"].attrs["order"] = terms
+
+
+_GZIP: dict[str, Any] = {
+    "chunks": True,
+    "compression": "gzip",
+    "compression_opts": 4,
+    "shuffle": True,
+}
+
+
+@dataclass(frozen=True)
+class StoredRecord:
+    """One run read back from a segment (digest checked)."""
+
+    run_id: str
+    segment_id: str
+    row: int
+    scene_json: str
+    trajectory: Trajectory
+    #: per-run provenance (created_at, wall_time_s, solver, ball_ref) and the segment's
+    attrs: dict[str, Any]
+    #: the run's per-run columns (RUN_STRING_COLUMNS, RUN_FLOAT_COLUMNS, created_at_ns)
+    columns: dict[str, Any]
+
+    def to_record(self) -> RunRecord:
+        """The run as a segment record again (to rewrite it into another segment)."""
+        c = self.columns
+        traj = self.trajectory
+        return RunRecord(
+            run_id=self.run_id,
+            scene_json=self.scene_json.encode(),
+            summary=traj.summary,
+            name=c["name"],
+            ball_ref=c["ball_ref"],
+            ball_sha=c["ball_sha"],
+            pattern=c["pattern"],
+            record=c["record"],
+            solver=c["solver"],
+            speed_mps=c["speed_mps"],
+            rev_rate_rpm=c["rev_rate_rpm"],
+            mass_kg=c["mass_kg"],
+            rtol=c["rtol"],
+            wall_time_s=c["wall_time_s"],
+            created_at_ns=c["created_at_ns"],
+            trajectory={k: getattr(traj, k) for k in TRAJECTORY_FIELDS} if traj.n_samples else {},
+            torques=dict(traj.torques_Nm),
+            events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
+        )
+
+
+def _text(value: Any) -> str:
+    return bytes(value).decode() if isinstance(value, bytes | np.bytes_) else str(value)
+
+
+class SegmentFile:
+    """A sealed segment opened for reading (a context manager; closes the HDF5 file)."""
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
+        self.path = Path(path)
+        try:
+            self._f = h5py.File(self.path, "r", locking=False)
+        except OSError as err:
+            raise SegmentError(f"{self.path}: not a readable HDF5 file ({err})") from None
+        try:
+            fmt = self._f.attrs.get("format")
+            version = str(self._f.attrs.get("format_version", ""))
+        except (OSError, RuntimeError, KeyError) as err:
+            self._f.close()
+            raise SegmentError(f"{self.path}: unreadable header ({err})") from None
+        if fmt != SEGMENT_FORMAT:
+            self._f.close()
+            raise SegmentError(f"{self.path}: not a bowlrec segment (format = {fmt!r})")
+        if version.split(".")[0] != SEGMENT_FORMAT_VERSION.split(".")[0]:
+            self._f.close()
+            raise SegmentError(
+                f"{self.path}: segment format {version} is not supported by this bowlrec "
+                f"(it reads {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
+            )
+        self.segment_id = str(self._f.attrs["segment_id"])
+
+    def __enter__(self) -> SegmentFile:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        self._f.close()
+
+    @property
+    def provenance(self) -> dict[str, Any]:
+        """The root attributes (format, segment ID, package versions, platform)."""
+        return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in self._f.attrs.items()}
+
+    @property
+    def n_runs(self) -> int:
+        return int(self._f.attrs["n_runs"])
+
+    def run_ids(self) -> list[str]:
+        return [_text(v) for v in self._f["runs/run_id"][()]]
+
+    def index_columns(self) -> dict[str, NDArray[Any]]:
+        """Every fixed-width per-run column (runs/* and summary/* but the variable-length
+        bytes), whole: what the index needs, read without touching scenes or samples."""
+        out: dict[str, NDArray[Any]] = {}
+        for group in ("runs", "summary"):
+            g = self._f[group]
+            for name in g:
+                if name in ("scene_json", "scene_json_offsets", "message", "message_offsets"):
+                    continue
+                out[name] = g[name][()]
+        out["n_samples"] = np.diff(self._f["trajectory/offsets"][()])
+        return out
+
+    # -- one run -------------------------------------------------------------------------------
+
+    def _fixed_row(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
+        out: dict[str, dict[str, NDArray[Any]]] = {}
+        for group in ("runs", "summary"):
+            g = self._f[group]
+            out[group] = {
+                name: g[name][row : row + 1]
+                for name in g
+                if name not in ("scene_json", "scene_json_offsets", "message", "message_offsets")
+            }
+        return out
+
+    @staticmethod
+    def _span(ds: Any, row: int) -> tuple[int, int]:
+        a, b = ds[row : row + 2]
+        return int(a), int(b)
+
+    def read_run(self, row: int) -> StoredRecord:
+        """Run ``row`` with its digest checked (:class:`RunDamagedError` when it fails)."""
+        f = self._f
+        try:
+            fixed = self._fixed_row(row)
+            run_id = _text(fixed["runs"]["run_id"][0])
+        except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
+            raise RunDamagedError(f"row {row}", self.segment_id, f"unreadable: {err}") from None
+        try:
+            s0, s1 = self._span(f["runs/scene_json_offsets"], row)
+            scene = f["runs/scene_json"][s0:s1].tobytes()
+            m0, m1 = self._span(f["summary/message_offsets"], row)
+            message = f["summary/message"][m0:m1].tobytes()
+            e0, e1 = self._span(f["events/offsets"], row)
+            events = {k: f["events"][k][e0:e1] for k in EVENT_FIELDS}
+            t0, t1 = self._span(f["trajectory/offsets"], row)
+            samples = {
+                k: f["trajectory"][k][t0:t1] for k in TRAJECTORY_FIELDS if k in f["trajectory"]
+            }
+            q0, q1 = self._span(f["torques/offsets"], row)
+            terms = [_text(t) for t in f["torques"].attrs["order"]]
+            torques = {t: f["torques"][t][q0:q1] for t in terms} if q1 > q0 else {}
+        except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
+            raise RunDamagedError(run_id, self.segment_id, f"unreadable: {err}") from None
+        digest = run_digest(
+            row_matrix(fixed_columns(fixed["runs"], fixed["summary"]), 1)[0].data,
+            scene,
+            message,
+            row_matrix(event_columns(events), e1 - e0).data,
+            row_matrix(sample_columns(samples), t1 - t0).data,
+            row_matrix([torques[t] for t in torques], q1 - q0).data,
+        )
+        if digest != bytes(fixed["runs"]["digest"][0]):
+            raise RunDamagedError(run_id, self.segment_id, "digest mismatch")
+        return self._record(row, run_id, fixed, scene, message, events, samples, torques)
+
+    def _record(
+        self,
+        row: int,
+        run_id: str,
+        fixed: dict[str, dict[str, NDArray[Any]]],
+        scene: bytes,
+        message: bytes,
+        events: dict[str, NDArray[Any]],
+        samples: dict[str, NDArray[Any]],
+        torques: dict[str, NDArray[Any]],
+    ) -> StoredRecord:
+        r, s = fixed["runs"], fixed["summary"]
+        values: dict[str, Any] = {"outcome": _text(s["outcome"][0]), "message": message.decode()}
+        for name in SUMMARY_FLOAT_COLUMNS:
+            v = float(s[name][0])
+            values[name] = None if np.isnan(v) else v
+        for name in SUMMARY_INT_COLUMNS:
+            values[name] = int(s[name][0])
+        summary = Summary(**values)
+        evs = [
+            Event(
+                t_s=float(events["t_s"][i]),
+                kind=_text(events["kind"][i]),
+                x_m=float(events["x_m"][i]),
+                y_m=float(events["y_m"][i]),
+                mu=float(events["mu"][i]),
+                phase=_text(events["phase"][i]),
+            )
+            for i in range(int(events["t_s"].shape[0]))
+        ]
+        if not samples:
+            samples = _empty_samples()
+        traj = Trajectory(**samples, events=evs, summary=summary, torques_Nm=dict(torques))
+        attrs = {k: v for k, v in self.provenance.items() if k not in ("n_runs",)}
+        attrs.update(
+            {
+                "ball_ref": _text(r["ball_ref"][0]),
+                "solver": _text(r["solver"][0]),
+                "wall_time_s": float(r["wall_time_s"][0]),
+                "created_at_ns": int(r["created_at_ns"][0]),
+            }
+        )
+        columns: dict[str, Any] = {k: _text(r[k][0]) for k in RUN_STRING_COLUMNS}
+        columns.update({k: float(r[k][0]) for k in RUN_FLOAT_COLUMNS})
+        columns["created_at_ns"] = int(r["created_at_ns"][0])
+        return StoredRecord(run_id, self.segment_id, row, scene.decode(), traj, attrs, columns)
+
+    # -- every run -----------------------------------------------------------------------------
+
+    def verify(self) -> tuple[list[int], dict[int, str]]:
+        """Check every run's digest: (healthy rows, {damaged row: reason})."""
+        f = self._f
+        n = self.n_runs
+        try:
+            cols = self.index_columns()
+            runs = {k: v for k, v in cols.items() if k in f["runs"] and k != "n_samples"}
+            summary = {k: v for k, v in cols.items() if k in f["summary"]}
+            fixed = row_matrix(fixed_columns(runs, summary), n)
+        except (OSError, RuntimeError, KeyError, ValueError) as err:
+            return [], {i: f"unreadable per-run columns: {err}" for i in range(n)}
+        parts: dict[str, tuple[Any, NDArray[np.int64]]] = {}
+        broken: str | None = None
+        readers = {
+            "scene": lambda: (f["runs/scene_json"][()], f["runs/scene_json_offsets"][()]),
+            "message": lambda: (f["summary/message"][()], f["summary/message_offsets"][()]),
+            "events": lambda: self._matrix("events", EVENT_FIELDS),
+            "samples": lambda: self._matrix("trajectory", TRAJECTORY_FIELDS),
+            "torques": lambda: self._matrix(
+                "torques", [_text(t) for t in f["torques"].attrs["order"]]
+            ),
+        }
+        for key, read in readers.items():
+            try:
+                parts[key] = read()
+            except (OSError, RuntimeError, KeyError, ValueError) as err:
+                broken = broken or f"unreadable {key}: {err}"
+        if broken is not None:
+            return [], dict.fromkeys(range(n), broken)
+        healthy: list[int] = []
+        damaged: dict[int, str] = {}
+        for i in range(n):
+            slices = []
+            for key in ("scene", "message", "events", "samples", "torques"):
+                data, offsets = parts[key]
+                slices.append(data[offsets[i] : offsets[i + 1]].data)
+            if run_digest(fixed[i].data, *slices) == bytes(runs["digest"][i]):
+                healthy.append(i)
+            else:
+                damaged[i] = "digest mismatch"
+        return healthy, damaged
+
+    def _matrix(self, group: str, names: Any) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
+        g = self._f[group]
+        offsets = g["offsets"][()]
+        cols = [g[k][()] for k in names if k in g]
+        return row_matrix(cols, int(offsets[-1])), offsets
+
+    def read_all(self, rows: list[int] | None = None) -> list[StoredRecord]:
+        """Several runs (every run when ``rows`` is None), digests checked."""
+        return [self.read_run(i) for i in (range(self.n_runs) if rows is None else rows)]
+
+
+def _empty_samples() -> dict[str, NDArray[Any]]:
+    shapes = {
+        "alpha_radps2": (0, 3),
+        "energy_J": (0,),
+        "friction_force_N": (0, 3),
+        "mu": (0,),
+        "normal_force_N": (0,),
+        "omega_radps": (0, 3),
+        "position_m": (0, 3),
+        "quaternion_wxyz": (0, 4),
+        "slip_mps": (0, 3),
+        "t_s": (0,),
+        "velocity_mps": (0, 3),
+    }
+    out: dict[str, NDArray[Any]] = {k: np.zeros(s) for k, s in shapes.items()}
+    out["phase"] = np.zeros(0, dtype=np.int8)
+    return out
