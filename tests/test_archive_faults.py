@@ -152,8 +152,18 @@ def _wait_ready(child: subprocess.Popen[str]) -> None:
     line = child.stdout.readline().strip()
     if line != "ready":
         child.kill()
-        _, err = child.communicate(timeout=30)
+        _, err = _collect(child)
         raise AssertionError(f"child did not start: {line!r}\n{err}")
+
+
+def _collect(child: subprocess.Popen[str]) -> tuple[str, str]:
+    """The rest of a child's stdout and its stderr, once it exits. (Not communicate(): after a
+    readline() it would miss what the text wrapper had already buffered.)"""
+    assert child.stdout is not None and child.stderr is not None
+    out = child.stdout.read()
+    err = child.stderr.read()
+    child.wait(timeout=60)
+    return out, err
 
 
 # -- 1. SIGKILL campaign -------------------------------------------------------------------------
@@ -201,7 +211,7 @@ def _writer(root: Path, template: Template, start: int, stop: int, seed: int) ->
 def _kill(child: subprocess.Popen[str]) -> WriterOutput:
     with contextlib.suppress(ProcessLookupError):
         os.kill(child.pid, signal.SIGKILL)
-    out, err = child.communicate(timeout=60)
+    out, err = _collect(child)
     # killed (-9), or finished its range first (0); anything else is a writer failure
     assert child.returncode in (-signal.SIGKILL, 0), err
     return _parse_writer(out)
@@ -375,7 +385,7 @@ def test_eight_processes_adding_balls(tmp_path: Path) -> None:
         c.stdin.flush()
     results: list[dict[str, Any]] = []
     for i, c in enumerate(children):
-        out, err = c.communicate(timeout=120)
+        out, err = _collect(c)
         assert c.returncode == 0, f"process {i} failed:\n{err}"
         lines = [json.loads(line) for line in out.splitlines() if line.strip()]
         assert len(lines) == 50, f"process {i}: {len(lines)} adds"
@@ -425,22 +435,33 @@ def _reader_mode() -> str:
     return "direct" if probe.returncode == 0 else "drop"
 
 
+@dataclass(frozen=True)
+class ReadOnlyArchive:
+    """An archive every user may read (not write) and its ball library as (name, version, sha)."""
+
+    root: Path
+    balls: list[list[Any]]
+
+
 @pytest.fixture
-def readonly_archive(template: Template, tmp_path: Path) -> Iterator[Path]:
-    """An archive every user may read (not write), outside pytest's root-only directories."""
+def readonly_archive(template: Template, tmp_path: Path) -> Iterator[ReadOnlyArchive]:
+    """Runs 1-3 in two segments and three ball versions, outside pytest's root-only directories."""
     top = Path(tempfile.mkdtemp(prefix="bowlrec-ro-", dir="/tmp"))
     try:
         root = top / "a"
         archive = Archive(root)
         _seal(archive, [_copy(template, 1), _copy(template, 2)])
         _seal(archive, [_copy(template, 3)])
-        archive.balls.add("house", template.run.scene.ball)
-        archive.balls.add("house", template.run.scene.ball.model_copy(update={"mass_kg": 7.0}))
-        archive.balls.add("spare", template.run.scene.ball.model_copy(update={"mass_kg": 6.0}))
+        ball = template.run.scene.ball
+        archive.balls.add("house", ball)
+        archive.balls.add("house", ball.model_copy(update={"mass_kg": 7.0}))
+        archive.balls.add("spare", ball.model_copy(update={"mass_kg": 6.0}))
+        balls = [[e.name, e.version, e.sha] for e in archive.balls.list(all_versions=True)]
+        assert [b[:2] for b in balls] == [["house", 1], ["house", 2], ["spare", 1]]
         (root / ".writer.lock").unlink()
         for p in [top, *top.rglob("*")]:
             p.chmod(0o755 if p.is_dir() else 0o644)
-        yield root
+        yield ReadOnlyArchive(root, balls)
     finally:
         shutil.rmtree(top, ignore_errors=True)
 
@@ -463,41 +484,33 @@ def _read_as_nobody(root: Path, tmp_path: Path) -> dict[str, Any]:
     return doc
 
 
-def _expected_read(template: Template) -> dict[str, Any]:
+def _check_read(doc: dict[str, Any], ro: ReadOnlyArchive, template: Template) -> None:
     arrays = {k: v.tobytes().hex() for k, v in template.run.trajectory.arrays().items()}
     ids = [f"{i:020x}" for i in (1, 2, 3)]
-    return {"runs": sorted(ids), "loaded": dict.fromkeys(ids, arrays)}
-
-
-def _check_read(doc: dict[str, Any], root: Path, template: Template) -> None:
-    want = _expected_read(template)
-    assert sorted(doc["runs"]) == want["runs"]
-    assert doc["loaded"] == want["loaded"]
-    archive = Archive(root)
-    balls = [[e.name, e.version, e.sha] for e in archive.balls.list(all_versions=True)]
-    assert [b[:2] for b in balls] == [["house", 1], ["house", 2], ["spare", 1]]
-    assert doc["balls"] == balls
+    assert sorted(doc["runs"]) == ids
+    assert doc["loaded"] == dict.fromkeys(ids, arrays)  # every run loaded, bit-identical
+    assert doc["balls"] == ro.balls
 
 
 def test_reader_without_write_access_creates_nothing(
-    readonly_archive: Path, template: Template, tmp_path: Path
+    readonly_archive: ReadOnlyArchive, template: Template, tmp_path: Path
 ) -> None:
     """User nobody lists runs, loads them and lists the balls; no file is created or touched
     (no .writer.lock, no journal)."""
-    root = readonly_archive
+    root = readonly_archive.root
     before = _snapshot(root)
     doc = _read_as_nobody(root, tmp_path)
     assert _snapshot(root) == before
-    _check_read(doc, root, template)
+    _check_read(doc, readonly_archive, template)
 
 
 @pytest.mark.parametrize("damage", ["missing", "garbled"])
 def test_reader_without_write_access_lists_without_an_index(
-    readonly_archive: Path, template: Template, tmp_path: Path, damage: str
+    readonly_archive: ReadOnlyArchive, template: Template, tmp_path: Path, damage: str
 ) -> None:
     """index.sqlite missing or garbled and the reader may not write: it still lists and loads
     (an index built in memory) and writes nothing."""
-    root = readonly_archive
+    root = readonly_archive.root
     index = root / "index.sqlite"
     if damage == "missing":
         index.unlink()
@@ -508,8 +521,7 @@ def test_reader_without_write_access_lists_without_an_index(
     assert _snapshot(root) == before
     if damage == "missing":
         assert not index.exists()
-    # _check_read opens the archive as root, which rebuilds the index: compare after the reader
-    _check_read(doc, root, template)
+    _check_read(doc, readonly_archive, template)
 
 
 # -- 5. full disk --------------------------------------------------------------------------------
@@ -655,7 +667,7 @@ def change_value_in_place(path: Path, dataset: str, index: int) -> float:
     with h5py.File(path, "r") as f:
         now = f[dataset][()]
     assert now[index] != old[index]
-    assert np.array_equal(np.delete(now, index), np.delete(old, index))
+    assert np.delete(now, index).tobytes() == np.delete(old, index).tobytes()
     return float(now[index])
 
 
@@ -911,7 +923,7 @@ def test_reindex_while_another_process_reads(tmp_path: Path, template: Template)
             time.sleep(0.05)
     finally:
         stop.touch()
-    out, err = child.communicate(timeout=60)
+    out, err = _collect(child)
     assert child.returncode == 0, err
     doc = json.loads(out)
     assert doc["n_errors"] == 0, doc["errors"]

@@ -1,9 +1,11 @@
 """The archive's index: one row per live run, one per segment, the ball library, in SQLite.
 
-The index is derived: everything in it is rebuilt from the segment files, the ball files and the
-tombstones (:mod:`bowlrec.archive.maintenance`). Listing or filtering a million runs reads this
-file, never the segments. Writers hold the archive's writer lock and commit in ``BEGIN
-IMMEDIATE`` transactions (rollback journal, ``synchronous=FULL``); readers open the file
+Table ``runs`` is a rowid table: rows are appended in registration order, and the only index
+with random insert positions is the unique run-ID index (created-at and outcome indexes grow at
+their ends). The index is derived: everything in it is rebuilt from the segment files, the ball
+files and the tombstones (:mod:`bowlrec.archive.maintenance`). Listing or filtering a million
+runs reads this file, never the segments. Writers hold the archive's writer lock and commit in
+``BEGIN IMMEDIATE`` transactions (rollback journal, ``synchronous=FULL``); readers open the file
 read-only (``mode=ro``), so reading needs no write access, and a rebuilt index replaces the old
 one by an atomic rename, so a reader sees the old index or the new, never a partial one.
 """
@@ -38,7 +40,7 @@ INDEX_FORMAT = "2"
 
 #: stored per run (table ``runs``): column -> SQLite type
 RUN_TABLE_COLUMNS: dict[str, str] = {
-    "run_id": "TEXT PRIMARY KEY",
+    "run_id": "TEXT NOT NULL UNIQUE",
     "segment_id": "TEXT NOT NULL",
     "row": "INTEGER NOT NULL",
     "name": "TEXT",
@@ -86,12 +88,12 @@ SELECT_COLUMNS = ", ".join(
 
 _SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS runs (
+    seq INTEGER PRIMARY KEY,
     {", ".join(f"{k} {v}" for k, v in RUN_TABLE_COLUMNS.items())}
-) WITHOUT ROWID;
+);
 CREATE INDEX IF NOT EXISTS runs_created ON runs (created_at);
 CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome, created_at);
-CREATE INDEX IF NOT EXISTS runs_pattern ON runs (pattern);
-CREATE INDEX IF NOT EXISTS runs_ball ON runs (ball_name, ball_version);
+CREATE INDEX IF NOT EXISTS runs_pattern ON runs (pattern, created_at);
 CREATE TABLE IF NOT EXISTS segments (
     segment_id TEXT PRIMARY KEY,
     path TEXT NOT NULL,

@@ -177,11 +177,6 @@ class SegmentInfo:
 # -- digests -------------------------------------------------------------------------------------
 
 
-def _part(h: Any, data: bytes | memoryview) -> None:
-    h.update(len(data).to_bytes(8, "little"))
-    h.update(data)
-
-
 def run_digest(
     fixed_row: bytes | memoryview,
     scene: bytes | memoryview,
@@ -189,17 +184,18 @@ def run_digest(
     events: bytes | memoryview,
     samples: bytes | memoryview,
     torques: bytes | memoryview,
+    *extra: bytes | memoryview,
 ) -> bytes:
     """BLAKE2b-128 of one run's stored bytes (docs/archive-format.md, "Digests").
 
     Each part is preceded by its length (8 bytes, little-endian): the run's row of the per-run
     matrix, its scene JSON, its summary message, its rows of the event, sample and torque
-    matrices. Returns 32 hex digits as ASCII bytes.
+    matrices, then the rows of any further per-run record group (later 2.x versions). Returns 32
+    hex digits as ASCII bytes.
     """
-    h = hashlib.blake2b(digest_size=16)
-    for part in (fixed_row, scene, message, events, samples, torques):
-        _part(h, part)
-    return h.hexdigest().encode()
+    parts = (fixed_row, scene, message, events, samples, torques, *extra)
+    framed = b"".join(b for part in parts for b in (len(part).to_bytes(8, "little"), bytes(part)))
+    return hashlib.blake2b(framed, digest_size=16).hexdigest().encode()
 
 
 def row_matrix(columns: Sequence[NDArray[Any]], n: int) -> NDArray[np.uint8]:
@@ -233,8 +229,9 @@ def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
 def _strings(values: Iterable[str]) -> NDArray[np.bytes_]:
     """UTF-8 fixed-length strings (numpy 'S' of the longest entry, at least 1 byte)."""
     encoded = [v.encode() for v in values]
-    width = max((len(b) for b in encoded), default=1) or 1
-    return np.array(encoded, dtype=f"S{width}")
+    if not encoded:
+        return np.zeros(0, dtype="S1")
+    return np.array(encoded, dtype=np.bytes_)  # numpy picks the longest entry's width
 
 
 def _concat(chunks: Sequence[bytes]) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:

@@ -9,7 +9,10 @@ every run's digest (:meth:`verify`). A run whose bytes do not match its digest r
 
 from __future__ import annotations
 
+import functools
+import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -65,6 +68,10 @@ _MEANINGS = {
 }
 
 
+#: groups whose place in the digest is fixed (parts 1-6)
+_KNOWN_GROUPS = {"runs", "summary", "events", "trajectory", "torques"}
+
+
 class SegmentError(ValueError):
     """A file is not a readable segment of a supported format version."""
 
@@ -102,6 +109,7 @@ def write_segment(
     """Write a segment file at ``path`` whole or not at all (see :mod:`bowlrec.archive.segment`)."""
     terms = columns["_terms"]
     n = int(columns["runs"]["run_id"].shape[0])
+    meanings: dict[str, str] = {}
     with (
         atomic_path(path, durable=durable, hold_lock=True) as tmp,
         h5py.File(tmp, "w", locking=False) as f,
@@ -121,8 +129,9 @@ def write_segment(
                 units, meaning = _units(group_name, name)
                 ds.attrs["units"] = units
                 if meaning:
-                    ds.attrs["meaning"] = meaning
+                    meanings[f"{group_name}/{name}"] = meaning
         f["torques"].attrs["order"] = terms
+        f.attrs["meanings_json"] = json.dumps(meanings, sort_keys=True)
 
 
 _GZIP: dict[str, Any] = {
@@ -215,7 +224,11 @@ class SegmentFile:
     @property
     def provenance(self) -> dict[str, Any]:
         """The root attributes (format, segment ID, package versions, platform)."""
-        return {k: (v.item() if isinstance(v, np.generic) else v) for k, v in self._f.attrs.items()}
+        return {
+            k: (v.item() if isinstance(v, np.generic) else v)
+            for k, v in self._f.attrs.items()
+            if k != "meanings_json"
+        }
 
     @property
     def n_runs(self) -> int:
@@ -277,6 +290,7 @@ class SegmentFile:
             q0, q1 = self._span(f["torques/offsets"], row)
             terms = [_text(t) for t in f["torques"].attrs["order"]]
             torques = {t: f["torques"][t][q0:q1] for t in terms} if q1 > q0 else {}
+            extra = [m[a:b].data for m, (a, b) in self._extra_rows(row)]
         except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
             raise RunDamagedError(run_id, self.segment_id, f"unreadable: {err}") from None
         digest = run_digest(
@@ -286,6 +300,7 @@ class SegmentFile:
             row_matrix(event_columns(events), e1 - e0).data,
             row_matrix(sample_columns(samples), t1 - t0).data,
             row_matrix([torques[t] for t in torques], q1 - q0).data,
+            *extra,
         )
         if digest != bytes(fixed["runs"]["digest"][0]):
             raise RunDamagedError(run_id, self.segment_id, "digest mismatch")
@@ -353,7 +368,7 @@ class SegmentFile:
             return [], {i: f"unreadable per-run columns: {err}" for i in range(n)}
         parts: dict[str, tuple[Any, NDArray[np.int64]]] = {}
         broken: str | None = None
-        readers = {
+        readers: dict[str, Callable[[], tuple[Any, NDArray[np.int64]]]] = {
             "scene": lambda: (f["runs/scene_json"][()], f["runs/scene_json_offsets"][()]),
             "message": lambda: (f["summary/message"][()], f["summary/message_offsets"][()]),
             "events": lambda: self._matrix("events", EVENT_FIELDS),
@@ -362,6 +377,9 @@ class SegmentFile:
                 "torques", [_text(t) for t in f["torques"].attrs["order"]]
             ),
         }
+        for g in self._extra_groups():
+            names = sorted(k for k in self._f[g] if k != "offsets")
+            readers[g] = functools.partial(self._matrix, g, names)
         for key, read in readers.items():
             try:
                 parts[key] = read()
@@ -373,7 +391,7 @@ class SegmentFile:
         damaged: dict[int, str] = {}
         for i in range(n):
             slices = []
-            for key in ("scene", "message", "events", "samples", "torques"):
+            for key in parts:
                 data, offsets = parts[key]
                 slices.append(data[offsets[i] : offsets[i + 1]].data)
             if run_digest(fixed[i].data, *slices) == bytes(runs["digest"][i]):
@@ -381,6 +399,19 @@ class SegmentFile:
             else:
                 damaged[i] = "digest mismatch"
         return healthy, damaged
+
+    def _extra_groups(self) -> list[str]:
+        """Per-run record groups this reader does not know (added by a later 2.x minor)."""
+        return sorted(g for g in self._f if g not in _KNOWN_GROUPS and "offsets" in self._f[g])
+
+    def _extra_rows(self, row: int) -> list[tuple[NDArray[np.uint8], tuple[int, int]]]:
+        out = []
+        for g in self._extra_groups():
+            a, b = self._span(self._f[g]["offsets"], row)
+            names = sorted(k for k in self._f[g] if k != "offsets")
+            m = row_matrix([self._f[g][k][a:b] for k in names], b - a)
+            out.append((m, (0, b - a)))
+        return out
 
     def _matrix(self, group: str, names: Any) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
         g = self._f[group]
