@@ -9,6 +9,12 @@ Usage: python archive_fault_child.py ROLE ARGS...
     before :meth:`Archive.seal`, ``register`` before :meth:`Archive.register`, one ``run ID``
     line per run only after ``register()`` returned, then ``done``; ``finished`` at STOP.
 
+``die-in-commit ARCHIVE TEMPLATE.h5 START N``
+    Seals a segment of N template copies (run IDs from START), then registers it with the index
+    connection's page cache cut to the minimum (a transaction bigger than the cache: SQLite
+    spills pages to the database file before COMMIT) and SIGKILLs itself once the rows are
+    written, before COMMIT: the index is left with a hot rollback journal.
+
 ``create``
     Reads archive directories from stdin, one a line; opens ``Archive(line)`` at once and prints
     ``ok`` or ``error <message>`` (a barrier: the parent sends each line to every child).
@@ -19,7 +25,8 @@ Usage: python archive_fault_child.py ROLE ARGS...
     own, 5 under names every process uses with the same spec. Prints one JSON line per add.
 
 ``reader ARCHIVE [WARM_COPY UID]``
-    Lists runs, loads every listed run and lists the ball library; prints one JSON document.
+    Lists runs, loads the first 20 listed runs and lists the ball library; prints one JSON
+    document.
     With WARM_COPY and UID, first does the same on WARM_COPY (so every module is imported) and
     then drops to user UID before touching ARCHIVE (for when UID cannot run this interpreter).
 
@@ -33,6 +40,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import signal
 import sys
 import traceback
 from pathlib import Path
@@ -67,6 +75,33 @@ def writer(archive_dir: str, template: str, start: int, stop: int, seed: int) ->
         print("".join(f"run {rid}\n" for rid in ids) + "done", flush=True)
         i += n
     print("finished", flush=True)
+
+
+def die_in_commit(archive_dir: str, template: str, start: int, n: int) -> None:
+    import bowlrec.archive.registry as registry
+    from bowlrec.archive import Archive
+    from bowlrec.sinks import RunData
+    from bowlrec.sinks.hdf5_run import read_run_file
+
+    archive = Archive(archive_dir)
+    with archive.writer_lock():  # (the first index_writer() of a process runs recover())
+        archive.index_writer().execute("PRAGMA cache_size=1")  # the connection register() uses
+    stored = read_run_file(template)
+    plan = stored.scene.resolve()
+    builder = archive.builder()
+    for i in range(start, start + n):
+        run = RunData(stored.scene, plan, stored.trajectory, f"{i:020x}")
+        builder.append(archive.record(run, wall_time_s=0.0))
+    info = archive.seal(builder)
+    register_segment = registry.register_segment
+
+    def register_and_die(*args: Any, **kwargs: Any) -> Any:
+        register_segment(*args, **kwargs)
+        print("killing", flush=True)
+        os.kill(os.getpid(), signal.SIGKILL)
+
+    registry.register_segment = register_and_die
+    archive.register([info])
 
 
 def create() -> None:
@@ -110,13 +145,17 @@ def balls(archive_dir: str, proc: int) -> None:
         print(json.dumps(doc), flush=True)
 
 
+#: the reader loads the first runs listed, at most this many
+MAX_LOADS = 20
+
+
 def _read_all(archive_dir: str) -> dict[str, Any]:
     from bowlrec.archive import Archive
 
     archive = Archive(archive_dir, create=False)
     ids = [r["run_id"] for r in archive.list_runs()]
     loaded = {}
-    for rid in ids:
+    for rid in ids[:MAX_LOADS]:
         traj = archive.load(rid).trajectory
         loaded[rid] = {k: v.tobytes().hex() for k, v in traj.arrays().items()}
     balls = [(e.name, e.version, e.sha) for e in archive.balls.list(all_versions=True)]
@@ -159,6 +198,8 @@ def main() -> None:
     role, args = sys.argv[1], sys.argv[2:]
     if role == "writer":
         writer(args[0], args[1], int(args[2]), int(args[3]), int(args[4]))
+    elif role == "die-in-commit":
+        die_in_commit(args[0], args[1], int(args[2]), int(args[3]))
     elif role == "create":
         create()
     elif role == "balls":

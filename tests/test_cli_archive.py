@@ -234,3 +234,56 @@ def test_config_file_can_name_the_dask_scheduler(
     config.write_text("scheduler = [unclosed\n")
     with pytest.raises(ValueError, match="not valid TOML"):
         config_value("scheduler")
+
+
+def test_repair_names_damage_and_list_damaged_shows_it(tmp_path: Path) -> None:
+    import h5py
+
+    arch = str(tmp_path / "arch")
+    ids = [
+        json.loads(_ok("simulate", str(_small_scene(tmp_path, v)), "-a", arch, "--json"))["run_id"]
+        for v in (7.0, 9.0)
+    ]
+    assert "0 damaged" in _ok("runs", "repair", "-a", arch)
+    _, row, path = Archive(arch).locate(ids[0])  # type: ignore[misc]
+    with h5py.File(path, "r+") as f:
+        values = f["summary/pocket_deg"][()]
+        values[row] = -values[row]
+        f["summary/pocket_deg"][...] = values
+    shown = _fails(1, "runs", "show", ids[0], "-a", arch)
+    assert f"run {ids[0]} in segment" in shown and "damaged" in shown
+    assert "Traceback" not in shown
+    out = _fails(1, "runs", "repair", "-a", arch)
+    assert "1 damaged" in out and ids[0] in out
+    listed = json.loads(_ok("runs", "list", "--damaged", "-a", arch, "--json"))
+    assert [d["run_id"] for d in listed] == [ids[0]]
+    assert [r["run_id"] for r in json.loads(_ok("runs", "list", "-a", arch, "--json"))] == [ids[1]]
+    info = json.loads(_ok("archive", "info", "-a", arch, "--json"))
+    assert (info["runs"], info["damaged_runs"], info["format_version"]) == (1, 1, "2.0")
+
+
+def test_rm_compact_and_reindex(tmp_path: Path) -> None:
+    arch = str(tmp_path / "arch")
+    ids = [
+        json.loads(_ok("simulate", str(_small_scene(tmp_path, v)), "-a", arch, "--json"))["run_id"]
+        for v in (7.0, 8.0, 9.0)
+    ]
+    _ok("runs", "rm", ids[0], "-a", arch)
+    assert "3 segment(s) rewritten into 1" in _ok("runs", "compact", "-a", arch)
+    assert "2 run(s) indexed" in _ok("runs", "reindex", "-a", arch)
+    listed = {r["run_id"] for r in json.loads(_ok("runs", "list", "-a", arch, "--json"))}
+    assert listed == set(ids[1:])
+
+
+def test_archive_migrate_converts_the_v1_fixture(tmp_path: Path) -> None:
+    import shutil
+
+    copy = tmp_path / "old"
+    shutil.copytree(Path(__file__).parent / "fixtures" / "archive-v1", copy)
+    refused = _fails(2, "runs", "list", "-a", str(copy))
+    assert "format 1.0" in refused and "bowlrec archive migrate" in refused
+    out = _ok("archive", "migrate", str(copy))
+    assert "format 1.0 -> 2.0: 2 run(s)" in out and "v1-archive" in out
+    rows = json.loads(_ok("runs", "list", "-a", str(copy), "--json"))
+    assert sorted(r["name"] for r in rows) == ["fixture-summary", "fixture-trajectory"]
+    assert "already format 2.0" in _ok("archive", "migrate", str(copy))

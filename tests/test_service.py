@@ -183,6 +183,33 @@ def test_submit_scene_then_summary_spec_and_files(
     assert not [p for p in cache if p.name.endswith(".part")]  # only complete files
 
 
+def _damage_hook(archive_dir: Path, rid: str) -> None:
+    """Change the stored hook of run ``rid`` in place (what a bit flip does)."""
+    import h5py
+
+    segment, row, path = Archive(archive_dir, create=False).locate(rid)  # type: ignore[misc]
+    with h5py.File(path, "r+") as f:
+        hooks = f["summary/hook_m"][()]
+        hooks[row] += 1e-6
+        f["summary/hook_m"][...] = hooks
+
+
+def test_a_damaged_run_is_named_never_served(server: Server, client: httpx.Client) -> None:
+    scene = sampled_scene()
+    scene["delivery"] = {**scene["delivery"], "speed_mps": 8.125}  # a run no other test made
+    rid = client.post("/runs", json=scene).json()["run_id"]
+    _damage_hook(server.archive, rid)
+    assert client.get(f"/runs/{rid}").status_code == 200  # the index row is still listed
+    for path in ("spec", "files/hdf5", "files/mcap", "files/rrd"):
+        r = client.get(f"/runs/{rid}/{path}")
+        assert r.status_code == 409, (path, r.status_code, r.text)
+        assert f"run {rid} in segment" in r.json()["detail"] and "damaged" in r.json()["detail"]
+    # submitting the scene again stores a fresh copy, which is then served
+    again = client.post("/runs", json=scene)
+    assert again.status_code == 201 and again.json()["run_id"] == rid
+    assert client.get(f"/runs/{rid}/files/hdf5").status_code == 200
+
+
 def test_bowler_scene_and_library_ball_reference(client: httpx.Client) -> None:
     bowler = json.loads((HERE.parent / "examples" / "bowler" / "house-shot-right.json").read_text())
     bowler["options"] = {"record": "summary"}

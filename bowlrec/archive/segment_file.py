@@ -124,7 +124,7 @@ def write_segment(
             group = f.create_group(group_name)
             for name, arr in columns[group_name].items():
                 data = np.asarray(arr)
-                opts = _GZIP if data.ndim >= 1 and data.size > 0 else {}
+                opts = _GZIP if data.ndim >= 1 and data.nbytes > _SMALL_BYTES else {}
                 ds = group.create_dataset(name, data=data, **opts)
                 units, meaning = _units(group_name, name)
                 ds.attrs["units"] = units
@@ -134,12 +134,29 @@ def write_segment(
         f.attrs["meanings_json"] = json.dumps(meanings, sort_keys=True)
 
 
+#: datasets of at most this many bytes are stored contiguous and uncompressed (a chunk index
+#: and filter pipeline would cost more than they save)
+_SMALL_BYTES = 4096
 _GZIP: dict[str, Any] = {
     "chunks": True,
     "compression": "gzip",
     "compression_opts": 4,
     "shuffle": True,
 }
+
+
+@dataclass(frozen=True)
+class _RowBytes:
+    """One run's stored values, as read (the digest's input)."""
+
+    run_id: str
+    fixed: dict[str, dict[str, NDArray[Any]]]
+    scene: bytes
+    message: bytes
+    events: dict[str, NDArray[Any]]
+    samples: dict[str, NDArray[Any]]
+    torques: dict[str, NDArray[Any]]
+    extra: list[memoryview]
 
 
 @dataclass(frozen=True)
@@ -268,8 +285,8 @@ class SegmentFile:
         a, b = ds[row : row + 2]
         return int(a), int(b)
 
-    def read_run(self, row: int) -> StoredRecord:
-        """Run ``row`` with its digest checked (:class:`RunDamagedError` when it fails)."""
+    def _read_row(self, row: int) -> _RowBytes:
+        """Everything stored for run ``row`` (RunDamagedError when it cannot be read)."""
         f = self._f
         try:
             fixed = self._fixed_row(row)
@@ -278,33 +295,54 @@ class SegmentFile:
             raise RunDamagedError(f"row {row}", self.segment_id, f"unreadable: {err}") from None
         try:
             s0, s1 = self._span(f["runs/scene_json_offsets"], row)
-            scene = f["runs/scene_json"][s0:s1].tobytes()
             m0, m1 = self._span(f["summary/message_offsets"], row)
-            message = f["summary/message"][m0:m1].tobytes()
             e0, e1 = self._span(f["events/offsets"], row)
-            events = {k: f["events"][k][e0:e1] for k in EVENT_FIELDS}
             t0, t1 = self._span(f["trajectory/offsets"], row)
-            samples = {
-                k: f["trajectory"][k][t0:t1] for k in TRAJECTORY_FIELDS if k in f["trajectory"]
-            }
             q0, q1 = self._span(f["torques/offsets"], row)
+            tg = f["trajectory"]
             terms = [_text(t) for t in f["torques"].attrs["order"]]
-            torques = {t: f["torques"][t][q0:q1] for t in terms} if q1 > q0 else {}
-            extra = [m[a:b].data for m, (a, b) in self._extra_rows(row)]
+            data = _RowBytes(
+                run_id=run_id,
+                fixed=fixed,
+                scene=f["runs/scene_json"][s0:s1].tobytes(),
+                message=f["summary/message"][m0:m1].tobytes(),
+                events={k: f["events"][k][e0:e1] for k in EVENT_FIELDS},
+                samples={k: tg[k][t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
+                torques={t: f["torques"][t][q0:q1] for t in terms} if q1 > q0 else {},
+                extra=[m[a:b].data for m, (a, b) in self._extra_rows(row)],
+            )
         except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
             raise RunDamagedError(run_id, self.segment_id, f"unreadable: {err}") from None
-        digest = run_digest(
-            row_matrix(fixed_columns(fixed["runs"], fixed["summary"]), 1)[0].data,
-            scene,
-            message,
-            row_matrix(event_columns(events), e1 - e0).data,
-            row_matrix(sample_columns(samples), t1 - t0).data,
-            row_matrix([torques[t] for t in torques], q1 - q0).data,
-            *extra,
+        return data
+
+    @staticmethod
+    def _digest(d: _RowBytes) -> bytes:
+        n_events = int(d.events["t_s"].shape[0])
+        n_samples = int(d.samples["t_s"].shape[0]) if d.samples else 0
+        n_torques = int(next(iter(d.torques.values())).shape[0]) if d.torques else 0
+        return run_digest(
+            row_matrix(fixed_columns(d.fixed["runs"], d.fixed["summary"]), 1)[0].data,
+            d.scene,
+            d.message,
+            row_matrix(event_columns(d.events), n_events).data,
+            row_matrix(sample_columns(d.samples), n_samples).data,
+            row_matrix(list(d.torques.values()), n_torques).data,
+            *d.extra,
         )
-        if digest != bytes(fixed["runs"]["digest"][0]):
-            raise RunDamagedError(run_id, self.segment_id, "digest mismatch")
-        return self._record(row, run_id, fixed, scene, message, events, samples, torques)
+
+    def computed_digest(self, row: int) -> bytes:
+        """The digest of run ``row`` computed from its stored bytes (what ``runs/digest`` must
+        hold; see docs/archive-format.md, "Digests")."""
+        return self._digest(self._read_row(row))
+
+    def read_run(self, row: int) -> StoredRecord:
+        """Run ``row`` with its digest checked (:class:`RunDamagedError` when it fails)."""
+        d = self._read_row(row)
+        if self._digest(d) != bytes(d.fixed["runs"]["digest"][0]):
+            raise RunDamagedError(d.run_id, self.segment_id, "digest mismatch")
+        return self._record(
+            row, d.run_id, d.fixed, d.scene, d.message, d.events, d.samples, d.torques
+        )
 
     def _record(
         self,
