@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import subprocess
 import sys
@@ -607,3 +608,42 @@ def test_committed_v2_fixture_archive_still_reads(tmp_path: Path) -> None:
     traj = archive.load(rows[1]["run_id"]).trajectory
     assert traj.n_samples > 10 and traj.position_m.shape == (traj.n_samples, 3)
     assert set(traj.torques_Nm) >= {"tau_dev", "I_dev"}
+
+
+@pytest.mark.skipif(
+    __import__("shutil").which("h5dump") is None,
+    reason="h5dump (Debian's hdf5-tools, HDF5 1.10) is not installed; .ci/run installs it",
+)
+def test_segments_and_exports_read_with_hdf5_1_10_tools(tmp_path: Path) -> None:
+    """A segment and a one-run export, written by h5py with HDF5 2.0, read by the HDF5 1.10
+    command-line tools (another HDF5 implementation's reader, gzip + shuffle decoded)."""
+    import shutil
+
+    h5dump = shutil.which("h5dump")
+    assert h5dump is not None
+    archive = Archive(tmp_path / "a")
+    stored = archive.load(archive.simulate(_scene()).run_id)
+    segment = next((tmp_path / "a" / "segments").glob("*.h5"))
+    out = subprocess.run(
+        [h5dump, "-d", "/summary/hook_m", "-d", "/trajectory/t_s", "-m", "%.17g", str(segment)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 0, out.stderr
+    hook_text, times_text = out.stdout.split('DATASET "/trajectory/t_s"')
+
+    def values(text: str) -> list[float]:
+        data = text.split("DATA {", 1)[1].split("}", 1)[0]
+        return [float(v) for v in re.findall(r"\(\d+\): ([^,\s]+)", data)]
+
+    assert values(hook_text) == [stored.trajectory.summary.hook_m]  # exact to the last bit
+    assert values(times_text) == stored.trajectory.t_s.tolist()
+    exported = archive.export(stored.run_id, tmp_path / "one.h5")
+    out = subprocess.run(
+        [h5dump, "-d", "/trajectory/position_m", str(exported)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 0 and "DATASPACE  SIMPLE" in out.stdout, out.stderr

@@ -63,8 +63,16 @@ __all__ = [
 
 ARCHIVE_FORMAT = "bowlrec-archive"
 ARCHIVE_FORMAT_VERSION = "2.0"
-#: names an archive directory may hold besides its marker (a new archive may start with them)
-_ARCHIVE_ENTRIES = {".writer.lock"}
+#: what a directory may hold before its marker is written (a creation in progress, or one
+#: killed before it wrote the marker): such a directory is completed, not refused
+_ARCHIVE_ENTRIES = {
+    ".writer.lock",
+    "segments",
+    "balls",
+    "tombstones",
+    "index.sqlite",
+    "index.sqlite-journal",
+}
 
 
 class ArchiveError(RuntimeError):
@@ -158,7 +166,11 @@ class Archive:
         with self.writer_lock():
             if marker.exists():
                 return  # another process created it while this one waited for the lock
-            strangers = [p.name for p in self.root.iterdir() if p.name not in _ARCHIVE_ENTRIES]
+            strangers = [
+                p.name
+                for p in self.root.iterdir()
+                if p.name not in _ARCHIVE_ENTRIES and not p.name.startswith("index.sqlite.")
+            ]
             if strangers:
                 raise ArchiveError(
                     f"{self.root} exists, is not empty and is not a bowlrec archive; "
