@@ -5,13 +5,8 @@ library, tombstones and compaction, durability under kill -9, and the committed 
 from __future__ import annotations
 
 import json
-import os
-import random
 import re
-import signal
 import subprocess
-import sys
-import time
 from pathlib import Path
 
 import h5py
@@ -314,71 +309,6 @@ def test_runs_reference_the_library_ball_they_used(tmp_path: Path) -> None:
     assert archive.row(explicit)["ball_name"] == "house"
 
 
-# -- durability ----------------------------------------------------------------------------------
-
-
-def _kill_writer_once(archive_dir: Path, template: Path, start: int, delay_s: float) -> list[str]:
-    child = subprocess.Popen(
-        [
-            sys.executable,
-            str(HERE / "archive_writer_child.py"),
-            str(archive_dir),
-            str(template),
-            str(start),
-        ],
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    assert child.stdout is not None
-    assert child.stdout.readline().strip() == "ready"
-    time.sleep(delay_s)
-    os.kill(child.pid, signal.SIGKILL)
-    out, _ = child.communicate(timeout=30)
-    assert child.returncode == -signal.SIGKILL
-    return [line.strip() for line in out.splitlines() if line.strip()]
-
-
-def test_kill_9_mid_write_loses_at_most_the_run_being_written(
-    tmp_path: Path, template_run: RunData
-) -> None:
-    """A writer adding runs back to back (~10-30 ms each) is killed at random moments.
-
-    After every kill, before any repair: the index opens, every run it lists loads with the
-    template's exact arrays, and every run the writer reported done is listed. At most one run
-    (the one in flight) exists beyond the reported ones. Then repair() removes temporaries and
-    indexes a file renamed in place just before the kill.
-    """
-    template = write_run_file(tmp_path / "template.h5", template_run, {})
-    archive_dir = tmp_path / "a"
-    Archive(archive_dir)
-    rng = random.Random(20261121)
-    reported: list[str] = []
-    kills = int(os.environ.get("BOWLREC_KILL_TESTS", "12"))
-    mid_write = 0  # kills that left a partly written temporary behind
-    for k in range(kills):
-        start = len(reported) + 1000 * k
-        parts_before = len(list(archive_dir.rglob("*.part")))
-        reported += _kill_writer_once(archive_dir, template, start, rng.uniform(0.02, 0.6))
-        mid_write += len(list(archive_dir.rglob("*.part"))) > parts_before
-        archive = Archive(archive_dir, create=False)
-        listed = {r["run_id"] for r in archive.list_runs()}
-        assert set(reported) <= listed
-        assert len(listed - set(reported)) <= k + 1  # at most one in-flight run per kill
-        for rid in listed - set(reported) | set(reported[-3:]):
-            _assert_same_trajectory(archive.load(rid).trajectory, template_run.trajectory)
-    assert len(reported) > kills  # the writer got real work done between kills
-    assert mid_write >= kills // 4  # and most kills landed inside a file write
-    archive = Archive(archive_dir, create=False)
-    report = archive.repair(min_age_s=0)
-    assert report["damaged_runs"] == [] and report["index_rows_fixed"] == 0
-    assert not list(archive_dir.rglob("*.part"))
-    stored: set[str] = set()
-    for path in (archive_dir / "segments").glob("*.h5"):
-        with SegmentFile(path) as seg:
-            stored.update(seg.run_ids())
-    assert stored == {r["run_id"] for r in archive.list_runs()}
-
-
 # -- segments, tombstones, compaction ---------------------------------------------------------
 
 
@@ -516,6 +446,7 @@ def test_a_later_minor_version_s_extra_record_group_is_read_and_checked(
     archive.register([info])
     _assert_same_trajectory(archive.load(f"{1:020x}").trajectory, template_run.trajectory)
     assert archive.repair()["damaged_runs"] == []
+    archive.close()  # segments read are kept open; HDF5 opens a file once per process
     with h5py.File(info.path, "r+") as f:
         f["oil_grid/depth_m"][1, 0, 0] = -1.0  # a changed oil value of run 1
     archive.load(f"{0:020x}")

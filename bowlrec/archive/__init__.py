@@ -1,24 +1,57 @@
 """Trajectory archives (format 2.0): runs in sealed segment files, a derived SQLite index, a
 versioned ball-spec library, tombstones, quarantine and repair.
 
-See docs/archive-format.md for the on-disk format and :class:`Archive` for the API.
+See docs/archive-format.md for the on-disk format and :class:`Archive` for the API. Names are
+imported on first use, so listing an archive's index never loads NumPy or h5py.
 """
 
-from .balls import BallEntry, BallLibrary, BallNotFoundError, ball_sha, parse_ball_ref
-from .index import Filter
-from .location import default_archive_path
-from .run_id import run_id
-from .segment import RunRecord, SegmentBuilder, SegmentInfo
-from .segment_file import RunDamagedError, SegmentError, SegmentFile
-from .store import (
-    ARCHIVE_FORMAT,
-    ARCHIVE_FORMAT_VERSION,
-    AddResult,
-    Archive,
-    ArchiveError,
-    ArchiveWriteError,
-    RunNotFoundError,
-)
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from .balls import BallEntry, BallLibrary, BallNotFoundError, ball_sha, parse_ball_ref
+    from .errors import RunDamagedError, SegmentError
+    from .index import Filter
+    from .location import default_archive_path
+    from .run_id import run_id
+    from .segment import RunRecord, SegmentBuilder, SegmentInfo
+    from .segment_file import SegmentFile
+    from .store import (
+        ARCHIVE_FORMAT,
+        ARCHIVE_FORMAT_VERSION,
+        AddResult,
+        Archive,
+        ArchiveError,
+        ArchiveWriteError,
+        RunNotFoundError,
+    )
+
+#: public name -> the module that defines it
+_WHERE = {
+    "ARCHIVE_FORMAT": "store",
+    "ARCHIVE_FORMAT_VERSION": "store",
+    "AddResult": "store",
+    "Archive": "store",
+    "ArchiveError": "store",
+    "ArchiveWriteError": "store",
+    "BallEntry": "balls",
+    "BallLibrary": "balls",
+    "BallNotFoundError": "balls",
+    "Filter": "index",
+    "RunDamagedError": "errors",
+    "RunNotFoundError": "store",
+    "RunRecord": "segment",
+    "SegmentBuilder": "segment",
+    "SegmentError": "errors",
+    "SegmentFile": "segment_file",
+    "SegmentInfo": "segment",
+    "ball_sha": "balls",
+    "default_archive_path": "location",
+    "parse_ball_ref": "balls",
+    "run_id": "run_id",
+}
 
 __all__ = [
     "ARCHIVE_FORMAT",
@@ -43,3 +76,12 @@ __all__ = [
     "parse_ball_ref",
     "run_id",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bowlrec.archive' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value

@@ -29,7 +29,12 @@ __all__ = ["compact"]
 
 def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
     """(segment ID, path, provenance JSON) of the segments worth rewriting."""
-    live = dict(con.execute("SELECT segment_id, COUNT(*) FROM runs GROUP BY segment_id"))
+    live = dict(
+        con.execute(
+            "SELECT s.segment_id, COUNT(*) FROM runs r JOIN segments s ON s.seg = r.seg "
+            "GROUP BY r.seg"
+        )
+    )
     dead = {r[0] for r in con.execute("SELECT segment_id FROM tombstones")}
     dead |= {r[0] for r in con.execute("SELECT segment_id FROM shadowed")}
     rows = con.execute("SELECT segment_id, path, n_runs, provenance_json FROM segments").fetchall()
@@ -60,7 +65,9 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
             builder = SegmentBuilder(provenance)
             for seg_id, rel in sorted(members):
                 rows = con.execute(
-                    "SELECT row FROM runs WHERE segment_id = ? ORDER BY row", (seg_id,)
+                    "SELECT row FROM runs WHERE seg = "
+                    "(SELECT seg FROM segments WHERE segment_id = ?) ORDER BY row",
+                    (seg_id,),
                 ).fetchall()
                 try:
                     with SegmentFile(archive.root / rel) as seg:
@@ -80,7 +87,10 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
         old = [(s, r) for s, r, _ in chosen]
         with transaction(con, write=True):
             for seg_id, _ in old:
-                con.execute("DELETE FROM runs WHERE segment_id = ?", (seg_id,))
+                con.execute(
+                    "DELETE FROM runs WHERE seg = (SELECT seg FROM segments WHERE segment_id = ?)",
+                    (seg_id,),
+                )
                 con.execute("DELETE FROM shadowed WHERE segment_id = ?", (seg_id,))
                 con.execute("DELETE FROM segments WHERE segment_id = ?", (seg_id,))
             for info in sealed:

@@ -17,6 +17,7 @@ import os
 import sqlite3
 import threading
 from collections.abc import Iterator, Sequence
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -38,16 +39,18 @@ __all__ = [
 #: the index schema's version (meta key ``index_format``); another value means "rebuild"
 INDEX_FORMAT = "2"
 
-#: stored per run (table ``runs``): column -> SQLite type
+#: stored per run (table ``runs``): column -> SQLite type. Compact on purpose (a million rows):
+#: the segment and the ball spec's SHA-256 are integer keys into ``segments`` and
+#: ``ball_shas``, the creation time is ns since the epoch; listings show them as text
 RUN_TABLE_COLUMNS: dict[str, str] = {
     "run_id": "TEXT NOT NULL UNIQUE",
-    "segment_id": "TEXT NOT NULL",
+    "seg": "INTEGER NOT NULL",
     "row": "INTEGER NOT NULL",
     "name": "TEXT",
-    "created_at": "TEXT",
+    "created_ns": "INTEGER",
     "ball_name": "TEXT",
     "ball_version": "INTEGER",
-    "ball_sha": "TEXT",
+    "ball_key": "INTEGER",
     "pattern": "TEXT",
     "outcome": "TEXT",
     "slide_m": "REAL",
@@ -71,38 +74,70 @@ RUN_TABLE_COLUMNS: dict[str, str] = {
     "wall_time_s": "REAL",
 }
 
-#: the columns of a listed run (``runs list --json``, ``GET /runs``): the stored ones, then the
-#: segment's versions and path; the order is the order of the output
+#: a listed run's column (``runs list --json``, ``GET /runs``; the order of the output) -> the
+#: SQL expression over ``runs r``, ``segments s`` and ``ball_shas b`` that gives it
+_LISTED: dict[str, str] = {
+    "run_id": "r.run_id",
+    "segment_id": "s.segment_id",
+    "row": "r.row",
+    "name": "r.name",
+    "created_at": "r.created_ns",  # ns in SQL (indexed, sortable); ISO text in the output
+    "ball_name": "r.ball_name",
+    "ball_version": "r.ball_version",
+    "ball_sha": "b.sha",
+    **{k: f"r.{k}" for k in list(RUN_TABLE_COLUMNS)[8:]},
+    "physics_version": "s.physics_version",
+    "bowlrec_version": "s.bowlrec_version",
+    "path": "s.path",
+}
+#: a listed run's column -> its SQLite type
 INDEX_COLUMNS: dict[str, str] = {
-    **{k: v.split()[0] for k, v in RUN_TABLE_COLUMNS.items()},
-    "physics_version": "TEXT",
-    "bowlrec_version": "TEXT",
-    "path": "TEXT",
+    k: ("TEXT" if k in ("segment_id", "ball_sha", "created_at") else None)
+    or RUN_TABLE_COLUMNS.get(v.removeprefix("r."), "TEXT").split()[0]
+    for k, v in _LISTED.items()
 }
 NUMERIC_COLUMNS = frozenset(k for k, v in INDEX_COLUMNS.items() if v in ("REAL", "INTEGER"))
 COMPARISONS = ("<=", ">=", "!=", "=", "<", ">")
-#: SELECT list of a listed run (runs joined with its segment)
-SELECT_COLUMNS = ", ".join(
-    [f"r.{k}" for k in RUN_TABLE_COLUMNS] + ["s.physics_version", "s.bowlrec_version", "s.path"]
-)
+#: SELECT list of a listed run (convert ``created_at`` with :func:`listed_row`)
+SELECT_COLUMNS = ", ".join(f"{expr} AS {name}" for name, expr in _LISTED.items())
+#: FROM clause of a listed run
+FROM_RUNS = "runs r JOIN segments s ON s.seg = r.seg LEFT JOIN ball_shas b ON b.key = r.ball_key"
+
+
+def iso_time(ns: int | None) -> str | None:
+    """ISO 8601 UTC with microseconds ("2026-11-24T16:42:11.123456+00:00") of epoch ns."""
+    if ns is None:
+        return None
+    seconds, rest = divmod(int(ns), 1_000_000_000)
+    stamp = datetime.fromtimestamp(seconds, UTC).replace(microsecond=rest // 1000)
+    return stamp.isoformat(timespec="microseconds")
+
+
+def listed_row(row: sqlite3.Row) -> dict[str, Any]:
+    """A listed run as a dict, its creation time as ISO text."""
+    out = dict(row)
+    out["created_at"] = iso_time(out["created_at"])
+    return out
+
 
 _SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS runs (
     seq INTEGER PRIMARY KEY,
     {", ".join(f"{k} {v}" for k, v in RUN_TABLE_COLUMNS.items())}
 );
-CREATE INDEX IF NOT EXISTS runs_created ON runs (created_at);
-CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome, created_at);
-CREATE INDEX IF NOT EXISTS runs_pattern ON runs (pattern, created_at);
+CREATE INDEX IF NOT EXISTS runs_created ON runs (created_ns);
+CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome, created_ns);
 CREATE TABLE IF NOT EXISTS segments (
-    segment_id TEXT PRIMARY KEY,
+    seg INTEGER PRIMARY KEY,
+    segment_id TEXT NOT NULL UNIQUE,
     path TEXT NOT NULL,
     n_runs INTEGER NOT NULL,
     size_bytes INTEGER NOT NULL,
     bowlrec_version TEXT,
     physics_version TEXT,
     provenance_json TEXT NOT NULL
-) WITHOUT ROWID;
+);
+CREATE TABLE IF NOT EXISTS ball_shas (key INTEGER PRIMARY KEY, sha TEXT NOT NULL UNIQUE);
 CREATE TABLE IF NOT EXISTS shadowed (
     segment_id TEXT NOT NULL,
     run_id TEXT NOT NULL,
@@ -191,7 +226,11 @@ def open_index(path: Path, *, write: bool) -> sqlite3.Connection:
         raise IndexUnreadableError(f"{path}: no index file") from None
     cached = cache.get(key)
     if cached is not None and cached[0] == inode:
-        return cached[1]
+        try:  # the file may have been damaged, or left with a hot journal, since it was opened
+            check_format(cached[1])
+            return cached[1]
+        except IndexUnreadableError:
+            pass  # closed and reopened below
     if cached is not None:
         cached[1].close()
         del cache[key]
@@ -250,6 +289,8 @@ class Filter:
             )
         if op not in COMPARISONS:
             raise IndexError_(f"unknown comparison {op!r}; use one of {' '.join(COMPARISONS)}")
+        if column == "created_at":
+            value = _epoch_ns(value)
         if column in NUMERIC_COLUMNS and not isinstance(value, int | float):
             try:
                 value = float(value)
@@ -272,14 +313,24 @@ class Filter:
         )
 
     def sql(self) -> tuple[str, Any]:
-        return f"{_qualified(self.column)} {self.op} ?", self.value
+        return f"{_LISTED[self.column]} {self.op} ?", self.value
 
     def __repr__(self) -> str:
         return f"Filter({self.column}{self.op}{self.value!r})"
 
 
-def _qualified(column: str) -> str:
-    return f"r.{column}" if column in RUN_TABLE_COLUMNS else f"s.{column}"
+def _epoch_ns(value: Any) -> int:
+    """A creation-time filter value (ISO 8601 text, naive = UTC) as ns since the epoch."""
+    try:
+        stamp = datetime.fromisoformat(str(value))
+    except ValueError:
+        raise IndexError_(
+            f"filter created_at: {value!r} is not an ISO 8601 time (e.g. 2026-11-24T16:00:00)"
+        ) from None
+    if stamp.tzinfo is None:
+        stamp = stamp.replace(tzinfo=UTC)
+    delta = stamp - datetime(1970, 1, 1, tzinfo=UTC)
+    return (delta.days * 86_400 + delta.seconds) * 1_000_000_000 + delta.microseconds * 1000
 
 
 def select_sql(
@@ -303,8 +354,8 @@ def select_sql(
     where = f" WHERE {' AND '.join(clauses_sql)}" if clauses_sql else ""
     direction = "DESC" if order_by.startswith("-") else "ASC"
     sql = (
-        f"SELECT {SELECT_COLUMNS} FROM runs r JOIN segments s ON s.segment_id = r.segment_id"
-        f"{where} ORDER BY {_qualified(order_by.lstrip('-'))} {direction}, r.run_id"
+        f"SELECT {SELECT_COLUMNS} FROM {FROM_RUNS}"
+        f"{where} ORDER BY {_LISTED[order_by.lstrip('-')]} {direction}, r.run_id"
     )
     if limit is not None:
         sql += f" LIMIT {int(limit)}"

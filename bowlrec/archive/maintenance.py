@@ -68,7 +68,9 @@ def _record_tombstones(con: sqlite3.Connection, entries: Iterable[Tombstone]) ->
             (e.segment_id, e.run_id, e.reason),
         )
         cur = con.execute(
-            "DELETE FROM runs WHERE run_id = ? AND segment_id = ?", (e.run_id, e.segment_id)
+            "DELETE FROM runs WHERE run_id = ? AND seg = "
+            "(SELECT seg FROM segments WHERE segment_id = ?)",
+            (e.run_id, e.segment_id),
         )
         if cur.rowcount:
             orphaned.add(e.run_id)
@@ -91,15 +93,15 @@ def promote_copies(archive: Archive, con: sqlite3.Connection, run_ids: Iterable[
         if con.execute("SELECT 1 FROM runs WHERE run_id = ?", (rid,)).fetchall():
             continue
         copies = con.execute(
-            "SELECT sh.segment_id, sh.row, s.path FROM shadowed sh "
+            "SELECT sh.segment_id, sh.row, s.path, s.seg FROM shadowed sh "
             "JOIN segments s ON s.segment_id = sh.segment_id WHERE sh.run_id = ? "
             "ORDER BY sh.segment_id",
             (rid,),
         ).fetchall()
-        for segment_id, row, rel in copies:
+        for segment_id, row, rel, key in copies:
             try:
                 with SegmentFile(archive.root / rel) as seg:
-                    rows = index_rows(segment_id, seg.index_columns())
+                    rows = index_rows(con, int(key), seg.index_columns())
             except (SegmentError, OSError):
                 continue
             con.execute(INSERT_RUN, rows[int(row)])

@@ -13,13 +13,18 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .index import RUN_TABLE_COLUMNS
 from .segment import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS
 from .segment_file import SegmentFile
 
-__all__ = ["INSERT_RUN", "index_rows", "register_segment", "segment_row"]
+__all__ = [
+    "INSERT_RUN",
+    "ball_keys",
+    "index_rows",
+    "register_segment",
+    "segment_key",
+    "segment_row",
+]
 
 INSERT_RUN = (
     f"INSERT INTO runs ({', '.join(RUN_TABLE_COLUMNS)}) "
@@ -35,12 +40,6 @@ def _floats(arr: Any) -> list[float | None]:
     return [None if v != v else v for v in arr.tolist()]  # NaN stands for None
 
 
-def iso_times(ns: Any) -> list[str]:
-    """ISO 8601 UTC strings with microseconds ("...T16:42:11.123456+00:00") of epoch ns."""
-    text = np.datetime_as_string(np.asarray(ns, dtype="datetime64[ns]").astype("datetime64[us]"))
-    return [t + "+00:00" for t in text.tolist()]
-
-
 def _ball_parts(refs: list[str]) -> tuple[list[str | None], list[int | None]]:
     cache: dict[str, tuple[str | None, int | None]] = {}
     for ref in set(refs):
@@ -49,20 +48,32 @@ def _ball_parts(refs: list[str]) -> tuple[list[str | None], list[int | None]]:
     return [cache[r][0] for r in refs], [cache[r][1] for r in refs]
 
 
-def index_rows(segment_id: str, cols: dict[str, Any]) -> list[tuple[Any, ...]]:
+def ball_keys(con: sqlite3.Connection, shas: list[str]) -> list[int]:
+    """The ``ball_shas`` keys of ball-spec SHA-256s (new ones are added)."""
+    unique = sorted(set(shas))
+    con.executemany("INSERT OR IGNORE INTO ball_shas (sha) VALUES (?)", [(x,) for x in unique])
+    keys: dict[str, int] = {}
+    for i in range(0, len(unique), 900):
+        part = unique[i : i + 900]
+        marks = ", ".join("?" for _ in part)
+        keys.update(con.execute(f"SELECT sha, key FROM ball_shas WHERE sha IN ({marks})", part))
+    return [keys[x] for x in shas]
+
+
+def index_rows(con: sqlite3.Connection, seg: int, cols: dict[str, Any]) -> list[tuple[Any, ...]]:
     """Rows of table ``runs`` (columns in :data:`RUN_TABLE_COLUMNS` order) from a segment's
-    index columns (:meth:`SegmentFile.index_columns`)."""
+    index columns (:meth:`SegmentFile.index_columns`); ``seg`` is the segment's key."""
     n = int(cols["run_id"].shape[0])
     ball_name, ball_version = _ball_parts(_texts(cols["ball_ref"]))
     values: dict[str, list[Any]] = {
         "run_id": _texts(cols["run_id"]),
-        "segment_id": [segment_id] * n,
+        "seg": [seg] * n,
         "row": list(range(n)),
         "name": _texts(cols["name"]),
-        "created_at": iso_times(cols["created_at_ns"]),
+        "created_ns": cols["created_at_ns"].tolist(),
         "ball_name": ball_name,
         "ball_version": ball_version,
-        "ball_sha": _texts(cols["ball_sha"]),
+        "ball_key": ball_keys(con, _texts(cols["ball_sha"])),
         "pattern": _texts(cols["pattern"]),
         "outcome": _texts(cols["outcome"]),
         "n_samples": cols["n_samples"].tolist(),
@@ -77,8 +88,14 @@ def index_rows(segment_id: str, cols: dict[str, Any]) -> list[tuple[Any, ...]]:
     return list(zip(*(values[k] for k in RUN_TABLE_COLUMNS), strict=True))
 
 
+def segment_key(con: sqlite3.Connection, segment_id: str) -> int | None:
+    """The integer key of a registered segment (None when it is not registered)."""
+    rows = con.execute("SELECT seg FROM segments WHERE segment_id = ?", (segment_id,)).fetchall()
+    return int(rows[0][0]) if rows else None
+
+
 def segment_row(seg: SegmentFile, rel_path: str, size_bytes: int) -> tuple[Any, ...]:
-    """The ``segments`` table row of an open segment."""
+    """The ``segments`` table row of an open segment (its key aside)."""
     skip = ("format", "format_version", "segment_id", "n_runs")  # not shared by other segments
     prov = {
         k: v
@@ -110,21 +127,21 @@ def register_segment(
     is not a readable segment.
     """
     with SegmentFile(path) as seg:
-        if con.execute(
-            "SELECT 1 FROM segments WHERE segment_id = ?", (seg.segment_id,)
-        ).fetchall():  # registered already (by a recovery in this or another process)
-            live = con.execute(
-                "SELECT COUNT(*) FROM runs WHERE segment_id = ?", (seg.segment_id,)
-            ).fetchall()[0][0]
+        known = segment_key(con, seg.segment_id)
+        if known is not None:  # registered already (by a recovery in this or another process)
+            live = con.execute("SELECT COUNT(*) FROM runs WHERE seg = ?", (known,)).fetchall()
             shadowed = con.execute(
                 "SELECT COUNT(*) FROM shadowed WHERE segment_id = ?", (seg.segment_id,)
-            ).fetchall()[0][0]
-            return int(live), int(shadowed)
-        rows = index_rows(seg.segment_id, seg.index_columns())
-        con.execute(
-            "INSERT INTO segments VALUES (?, ?, ?, ?, ?, ?, ?)",
+            ).fetchall()
+            return int(live[0][0]), int(shadowed[0][0])
+        cur = con.execute(
+            "INSERT INTO segments (segment_id, path, n_runs, size_bytes, bowlrec_version, "
+            "physics_version, provenance_json) VALUES (?, ?, ?, ?, ?, ?, ?)",
             segment_row(seg, rel_path, path.stat().st_size),
         )
+        seg_key = int(cur.lastrowid or 0)
+        rows = index_rows(con, seg_key, seg.index_columns())
+        segment_id = seg.segment_id
     dead_ids = set(dead)
     rows = [r for r in rows if r[0] not in dead_ids]
     existing: set[str] = set()
@@ -139,6 +156,6 @@ def register_segment(
     con.executemany(INSERT_RUN, fresh)
     con.executemany(
         "INSERT OR IGNORE INTO shadowed (segment_id, run_id, row) VALUES (?, ?, ?)",
-        [(r[1], r[0], r[2]) for r in rows if r[0] in existing],
+        [(segment_id, r[0], r[2]) for r in rows if r[0] in existing],
     )
     return len(fresh), len(rows) - len(fresh)

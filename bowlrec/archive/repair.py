@@ -86,7 +86,10 @@ def _quarantine(
         os.replace(path, archive.quarantine_dir / path.name)
         fsync_dir(archive.segments_dir)
     with transaction(con, write=True):
-        con.execute("DELETE FROM runs WHERE segment_id = ?", (segment_id,))
+        con.execute(
+            "DELETE FROM runs WHERE seg = (SELECT seg FROM segments WHERE segment_id = ?)",
+            (segment_id,),
+        )
         con.execute("DELETE FROM shadowed WHERE segment_id = ?", (segment_id,))
         con.execute("DELETE FROM segments WHERE segment_id = ?", (segment_id,))
         if salvaged is not None:
@@ -111,7 +114,9 @@ def repair(archive: Archive, *, min_age_s: float = 2.0) -> dict[str, Any]:
         report: dict[str, Any] = dict(recover(archive, con, min_age_s=min_age_s))
         segments = con.execute("SELECT segment_id, path FROM segments").fetchall()
         by_segment: dict[str, list[tuple[str, int]]] = {}
-        for rid, seg_id, row in con.execute("SELECT run_id, segment_id, row FROM runs"):
+        for rid, seg_id, row in con.execute(
+            "SELECT r.run_id, s.segment_id, r.row FROM runs r JOIN segments s ON s.seg = r.seg"
+        ):
             by_segment.setdefault(seg_id, []).append((rid, int(row)))
         n_runs = n_fixed = 0
         damaged_runs: list[dict[str, str]] = []
@@ -137,7 +142,11 @@ def repair(archive: Archive, *, min_age_s: float = 2.0) -> dict[str, Any]:
             if wrong:  # the index disagrees with the file: re-derive this segment's rows
                 n_fixed += len(wrong)
                 with transaction(con, write=True):
-                    con.execute("DELETE FROM runs WHERE segment_id = ?", (segment_id,))
+                    con.execute(
+                        "DELETE FROM runs WHERE seg = "
+                        "(SELECT seg FROM segments WHERE segment_id = ?)",
+                        (segment_id,),
+                    )
                     con.execute("DELETE FROM segments WHERE segment_id = ?", (segment_id,))
                     dead = con.execute(
                         "SELECT run_id FROM tombstones WHERE segment_id = ?", (segment_id,)

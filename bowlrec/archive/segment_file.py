@@ -25,6 +25,7 @@ from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.sinks.atomic import atomic_path
 from bowlrec.sinks.units import DIMENSIONLESS, units_for
 
+from .errors import RunDamagedError, SegmentError
 from .segment import (
     EVENT_FIELDS,
     RUN_FLOAT_COLUMNS,
@@ -70,21 +71,8 @@ _MEANINGS = {
 
 #: groups whose place in the digest is fixed (parts 1-6)
 _KNOWN_GROUPS = {"runs", "summary", "events", "trajectory", "torques"}
-
-
-class SegmentError(ValueError):
-    """A file is not a readable segment of a supported format version."""
-
-
-class RunDamagedError(ValueError):
-    """A stored run's bytes do not match its digest (or cannot be read)."""
-
-    def __init__(self, run_id: str, segment: str, reason: str) -> None:
-        super().__init__(
-            f"run {run_id} in segment {segment} is damaged ({reason}); "
-            "`bowlrec runs repair` quarantines it and keeps the healthy runs"
-        )
-        self.run_id, self.segment, self.reason = run_id, segment, reason
+#: per-run datasets of variable length (bytes concatenated over the runs, with offsets)
+_VARIABLE = ("scene_json", "scene_json_offsets", "message", "message_offsets")
 
 
 def _units(group: str, name: str) -> tuple[str, str | None]:
@@ -124,7 +112,7 @@ def write_segment(
             group = f.create_group(group_name)
             for name, arr in columns[group_name].items():
                 data = np.asarray(arr)
-                opts = _GZIP if data.ndim >= 1 and data.nbytes > _SMALL_BYTES else {}
+                opts = _storage(group_name, name, data)
                 ds = group.create_dataset(name, data=data, **opts)
                 units, meaning = _units(group_name, name)
                 ds.attrs["units"] = units
@@ -137,12 +125,30 @@ def write_segment(
 #: datasets of at most this many bytes are stored contiguous and uncompressed (a chunk index
 #: and filter pipeline would cost more than they save)
 _SMALL_BYTES = 4096
-_GZIP: dict[str, Any] = {
-    "chunks": True,
-    "compression": "gzip",
-    "compression_opts": 4,
-    "shuffle": True,
-}
+#: target chunk sizes (bytes): per-run and per-event columns are read whole (listing, index
+#: rebuilds, repair), so they get large chunks that compress best; samples and scenes are read
+#: one run at a time, so their chunks stay small enough to decompress in well under 1 ms
+_CHUNK_BYTES = {"runs": 1 << 20, "summary": 1 << 20, "events": 1 << 20}
+_SLICED_CHUNK_BYTES = 1 << 15
+_SLICED = {"scene_json", "message"}
+_GZIP_LEVEL = 6
+
+
+def _storage(group: str, name: str, data: NDArray[Any]) -> dict[str, Any]:
+    """How a dataset is stored: contiguous when small, else chunked + shuffle + gzip."""
+    if data.ndim == 0 or data.nbytes <= _SMALL_BYTES:
+        return {}
+    target = (
+        _SLICED_CHUNK_BYTES if name in _SLICED else _CHUNK_BYTES.get(group, _SLICED_CHUNK_BYTES)
+    )
+    row_bytes = max(1, data.nbytes // max(1, data.shape[0]))
+    rows = max(1, min(data.shape[0], target // row_bytes))
+    return {
+        "chunks": (rows, *data.shape[1:]),
+        "compression": "gzip",
+        "compression_opts": _GZIP_LEVEL,
+        "shuffle": True,
+    }
 
 
 @dataclass(frozen=True)
@@ -228,6 +234,10 @@ class SegmentFile:
                 f"(it reads {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
             )
         self.segment_id = str(self._f.attrs["segment_id"])
+        self._dsets: dict[str, Any] = {}
+        self._columns: dict[str, dict[str, NDArray[Any]]] | None = None
+        self._provenance: dict[str, Any] | None = None
+        self._terms_cache: list[str] | None = None
 
     def __enter__(self) -> SegmentFile:
         return self
@@ -241,11 +251,19 @@ class SegmentFile:
     @property
     def provenance(self) -> dict[str, Any]:
         """The root attributes (format, segment ID, package versions, platform)."""
-        return {
-            k: (v.item() if isinstance(v, np.generic) else v)
-            for k, v in self._f.attrs.items()
-            if k != "meanings_json"
-        }
+        if self._provenance is None:
+            self._provenance = {
+                k: (v.item() if isinstance(v, np.generic) else v)
+                for k, v in self._f.attrs.items()
+                if k != "meanings_json"
+            }
+        return dict(self._provenance)
+
+    @property
+    def _terms(self) -> list[str]:
+        if self._terms_cache is None:
+            self._terms_cache = [_text(t) for t in self._f["torques"].attrs["order"]]
+        return self._terms_cache
 
     @property
     def n_runs(self) -> int:
@@ -261,7 +279,7 @@ class SegmentFile:
         for group in ("runs", "summary"):
             g = self._f[group]
             for name in g:
-                if name in ("scene_json", "scene_json_offsets", "message", "message_offsets"):
+                if name in _VARIABLE:
                     continue
                 out[name] = g[name][()]
         out["n_samples"] = np.diff(self._f["trajectory/offsets"][()])
@@ -269,20 +287,42 @@ class SegmentFile:
 
     # -- one run -------------------------------------------------------------------------------
 
-    def _fixed_row(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
-        out: dict[str, dict[str, NDArray[Any]]] = {}
-        for group in ("runs", "summary"):
-            g = self._f[group]
-            out[group] = {
-                name: g[name][row : row + 1]
-                for name in g
-                if name not in ("scene_json", "scene_json_offsets", "message", "message_offsets")
-            }
-        return out
+    def _ds(self, path: str) -> Any:
+        """A dataset handle, opened once per file (opening costs more than a small read)."""
+        ds = self._dsets.get(path)
+        if ds is None:
+            ds = self._dsets[path] = self._f[path]
+        return ds
 
-    @staticmethod
-    def _span(ds: Any, row: int) -> tuple[int, int]:
-        a, b = ds[row : row + 2]
+    def _per_run(self) -> dict[str, dict[str, NDArray[Any]]]:
+        """Every per-run column and offsets dataset, read whole once and kept: the fixed-width
+        columns of runs/* and summary/*, and each group's offsets."""
+        if self._columns is None:
+            cols: dict[str, dict[str, NDArray[Any]]] = {}
+            for group in ("runs", "summary"):
+                g = self._f[group]
+                cols[group] = {name: g[name][()] for name in g if name not in _VARIABLE}
+            cols["offsets"] = {
+                "scene_json": self._f["runs/scene_json_offsets"][()],
+                "message": self._f["summary/message_offsets"][()],
+                **{
+                    g: self._f[g]["offsets"][()]
+                    for g in self._f
+                    if isinstance(self._f[g], h5py.Group) and "offsets" in self._f[g]
+                },
+            }
+            self._columns = cols
+        return self._columns
+
+    def _fixed_row(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
+        cols = self._per_run()
+        return {
+            group: {name: arr[row : row + 1] for name, arr in cols[group].items()}
+            for group in ("runs", "summary")
+        }
+
+    def _span(self, offsets: str, row: int) -> tuple[int, int]:
+        a, b = self._per_run()["offsets"][offsets][row : row + 2]
         return int(a), int(b)
 
     def _read_row(self, row: int) -> _RowBytes:
@@ -291,24 +331,24 @@ class SegmentFile:
         try:
             fixed = self._fixed_row(row)
             run_id = _text(fixed["runs"]["run_id"][0])
-        except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
+        except (OSError, RuntimeError, KeyError, ValueError, IndexError, TypeError) as err:
             raise RunDamagedError(f"row {row}", self.segment_id, f"unreadable: {err}") from None
         try:
-            s0, s1 = self._span(f["runs/scene_json_offsets"], row)
-            m0, m1 = self._span(f["summary/message_offsets"], row)
-            e0, e1 = self._span(f["events/offsets"], row)
-            t0, t1 = self._span(f["trajectory/offsets"], row)
-            q0, q1 = self._span(f["torques/offsets"], row)
+            s0, s1 = self._span("scene_json", row)
+            m0, m1 = self._span("message", row)
+            e0, e1 = self._span("events", row)
+            t0, t1 = self._span("trajectory", row)
+            q0, q1 = self._span("torques", row)
             tg = f["trajectory"]
-            terms = [_text(t) for t in f["torques"].attrs["order"]]
+            ds = self._ds
             data = _RowBytes(
                 run_id=run_id,
                 fixed=fixed,
-                scene=f["runs/scene_json"][s0:s1].tobytes(),
-                message=f["summary/message"][m0:m1].tobytes(),
-                events={k: f["events"][k][e0:e1] for k in EVENT_FIELDS},
-                samples={k: tg[k][t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
-                torques={t: f["torques"][t][q0:q1] for t in terms} if q1 > q0 else {},
+                scene=ds("runs/scene_json")[s0:s1].tobytes(),
+                message=ds("summary/message")[m0:m1].tobytes(),
+                events={k: ds(f"events/{k}")[e0:e1] for k in EVENT_FIELDS},
+                samples={k: ds(f"trajectory/{k}")[t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
+                torques={t: ds(f"torques/{t}")[q0:q1] for t in self._terms} if q1 > q0 else {},
                 extra=[m[a:b].data for m, (a, b) in self._extra_rows(row)],
             )
         except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
@@ -424,7 +464,17 @@ class SegmentFile:
             except (OSError, RuntimeError, KeyError, ValueError) as err:
                 broken = broken or f"unreadable {key}: {err}"
         if broken is not None:
-            return [], dict.fromkeys(range(n), broken)
+            # one damaged chunk makes a whole dataset unreadable: check run by run, reading
+            # only each run's own slices (as load() does), so that healthy runs are kept
+            healthy_rows: list[int] = []
+            damaged_rows: dict[int, str] = {}
+            for i in range(n):
+                try:
+                    self.read_run(i)
+                    healthy_rows.append(i)
+                except RunDamagedError as err:
+                    damaged_rows[i] = err.reason
+            return healthy_rows, damaged_rows
         healthy: list[int] = []
         damaged: dict[int, str] = {}
         for i in range(n):
@@ -445,7 +495,7 @@ class SegmentFile:
     def _extra_rows(self, row: int) -> list[tuple[NDArray[np.uint8], tuple[int, int]]]:
         out = []
         for g in self._extra_groups():
-            a, b = self._span(self._f[g]["offsets"], row)
+            a, b = self._span(g, row)
             names = sorted(k for k in self._f[g] if k != "offsets")
             m = row_matrix([self._f[g][k][a:b] for k in names], b - a)
             out.append((m, (0, b - a)))

@@ -27,6 +27,7 @@ import os
 import sqlite3
 import threading
 import time
+from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,9 +35,12 @@ from typing import TYPE_CHECKING, Any
 
 from .balls import BallLibrary, ball_sha
 from .index import (
+    FROM_RUNS,
     SELECT_COLUMNS,
     Filter,
     IndexUnreadableError,
+    iso_time,
+    listed_row,
     open_index,
     select_sql,
     transaction,
@@ -110,6 +114,13 @@ def pattern_label(scene: Scene) -> str:
     return str(getattr(friction, "pattern", None) or friction.kind)
 
 
+def _os_reason(err: OSError) -> str:
+    """A one-line reason for an OSError (h5py's strerror is HDF5's whole multi-line report)."""
+    if err.errno:
+        return os.strerror(err.errno)
+    return " ".join(str(err).split())
+
+
 def _read_marker(marker: Path) -> dict[str, Any]:
     try:
         meta = json.loads(marker.read_text())
@@ -136,6 +147,9 @@ class Archive:
         self._memory: sqlite3.Connection | None = None
         self._recovered = False
         self._ball_shas: dict[int, tuple[Any, str]] = {}
+        #: recently read segments, kept open (least recently used first)
+        self._open_segments: OrderedDict[Path, Any] = OrderedDict()
+        self._segments_lock = threading.Lock()
         self._ball_refs: dict[str, str] = {}
         marker = self.root / "archive.json"
         if not marker.exists():
@@ -316,7 +330,7 @@ class Archive:
         except OSError as err:
             raise ArchiveWriteError(
                 f"{self.segments_dir}: could not write a segment of {len(builder)} run(s) "
-                f"({err.strerror or err}); nothing already archived was lost"
+                f"({_os_reason(err)}); nothing already archived was lost"
             ) from None
 
     def register(self, segments: Iterable[SegmentInfo | Path]) -> tuple[int, int]:
@@ -447,8 +461,8 @@ class Archive:
             copies = [
                 r[0]
                 for r in con.execute(
-                    "SELECT segment_id FROM runs WHERE run_id = ? UNION "
-                    "SELECT segment_id FROM shadowed WHERE run_id = ?",
+                    "SELECT s.segment_id FROM runs r JOIN segments s ON s.seg = r.seg "
+                    "WHERE r.run_id = ? UNION SELECT segment_id FROM shadowed WHERE run_id = ?",
                     (rid, rid),
                 )
             ]
@@ -503,7 +517,7 @@ class Archive:
         sql, params = select_sql(filters, order_by, limit, clauses)
         con = self.index_reader()
         with transaction(con):
-            return [dict(r) for r in con.execute(sql, params)]
+            return [listed_row(r) for r in con.execute(sql, params)]
 
     def _ball_clause(self, ball: str) -> tuple[str, list[Any]]:
         """Runs that used library ball ``name`` (any version) or ``name@version``: by the
@@ -520,7 +534,7 @@ class Archive:
         by_ref = "r.ball_name = ?" + ("" if bversion is None else " AND r.ball_version = ?")
         params: list[Any] = [bname] + ([] if bversion is None else [bversion])
         if shas:
-            by_ref += f" OR r.ball_sha IN ({', '.join('?' for _ in shas)})"
+            by_ref += f" OR b.sha IN ({', '.join('?' for _ in shas)})"
             params += shas
         return by_ref, params
 
@@ -555,8 +569,8 @@ class Archive:
         row = (
             self.index_reader()
             .execute(
-                "SELECT r.segment_id, r.row, s.path FROM runs r "
-                "JOIN segments s ON s.segment_id = r.segment_id WHERE r.run_id = ?",
+                "SELECT s.segment_id, r.row, s.path FROM runs r "
+                "JOIN segments s ON s.seg = r.seg WHERE r.run_id = ?",
                 (run_id,),
             )
             .fetchall()
@@ -579,11 +593,9 @@ class Archive:
         con = self.index_reader()
         for i in range(0, len(ids), 900):
             part = ids[i : i + 900]
-            sql = (
-                f"SELECT {SELECT_COLUMNS} FROM runs r JOIN segments s "
-                f"ON s.segment_id = r.segment_id WHERE r.run_id IN ({', '.join('?' for _ in part)})"
-            )
-            out.update({r["run_id"]: dict(r) for r in con.execute(sql, part)})
+            marks = ", ".join("?" for _ in part)
+            sql = f"SELECT {SELECT_COLUMNS} FROM {FROM_RUNS} WHERE r.run_id IN ({marks})"
+            out.update({r["run_id"]: listed_row(r) for r in con.execute(sql, part)})
         return out
 
     def load(self, run_id: str) -> StoredRun:
@@ -595,8 +607,7 @@ class Archive:
         from bowlrec.sinks.hdf5_run import StoredRun
         from bowlrec.spec import Scene
 
-        from .registry import iso_times
-        from .segment_file import RunDamagedError, SegmentError, SegmentFile
+        from .errors import RunDamagedError, SegmentError
 
         found = self.locate(run_id)
         if found is None:
@@ -605,8 +616,7 @@ class Archive:
             assert found is not None
         segment_id, row, path = found
         try:
-            with SegmentFile(path) as seg:
-                rec = seg.read_run(row)
+            rec = self._segment(path).read_run(row)
         except SegmentError as err:
             raise RunDamagedError(run_id, segment_id, f"unreadable segment: {err}") from None
         except FileNotFoundError:
@@ -620,7 +630,7 @@ class Archive:
             {
                 "run_id": run_id,
                 "name": scene.name,
-                "created_at": iso_times([attrs.pop("created_at_ns")])[0],
+                "created_at": iso_time(attrs.pop("created_at_ns")),
                 "rtol": opts.rtol,
                 "record": opts.record,
                 "record_dt_s": opts.record_dt_s,
@@ -630,6 +640,26 @@ class Archive:
             }
         )
         return StoredRun(run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs)
+
+    def _segment(self, path: Path) -> Any:
+        """The segment at ``path``, opened once and kept among the 8 most recently read
+        (segments are immutable: a kept handle never goes stale)."""
+        from .segment_file import SegmentFile
+
+        with self._segments_lock:
+            seg = self._open_segments.pop(path, None)
+            if seg is None:
+                seg = SegmentFile(path)
+            self._open_segments[path] = seg
+            while len(self._open_segments) > 8:
+                self._open_segments.popitem(last=False)[1].close()
+        return seg
+
+    def close(self) -> None:
+        """Close the segment files kept open for reading (reopened when needed)."""
+        with self._segments_lock:
+            while self._open_segments:
+                self._open_segments.popitem()[1].close()
 
     def run_data(self, run_id: str) -> RunData:
         """A stored run as the sinks take it (the plan re-resolved from the stored scene)."""

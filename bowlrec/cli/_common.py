@@ -72,28 +72,33 @@ def open_archive(path: Path | None, *, create: bool = True) -> Archive:
 @contextmanager
 def archive_errors() -> Iterator[None]:
     """Turn archive lookups and writes that fail (unknown run or ball, bad filter, a damaged
-    run, a full disk) into one clear line and an exit code."""
-    from pydantic import ValidationError
-
-    from bowlrec.archive import (
-        ArchiveError,
-        ArchiveWriteError,
-        BallNotFoundError,
-        RunDamagedError,
-        RunNotFoundError,
-    )
-    from bowlrec.sinks import SamplesRequiredError
-    from bowlrec.spec import format_validation_error
-
+    run, a full disk) into one clear line and an exit code. The error classes are imported
+    only when something failed, so a listing never loads Pydantic or NumPy for them."""
     try:
         yield
-    except (RunNotFoundError, BallNotFoundError, RunDamagedError, ArchiveError) as err:
+    except Exception as err:
+        _exit_for(err)
+        raise
+
+
+def _exit_for(err: Exception) -> None:
+    """Exit with one line for the errors users cause or meet; return for anything else."""
+    from bowlrec.archive.balls import BallNotFoundError
+    from bowlrec.archive.errors import RunDamagedError
+    from bowlrec.archive.store import ArchiveError, ArchiveWriteError, RunNotFoundError
+
+    if isinstance(
+        err,
+        RunNotFoundError | BallNotFoundError | RunDamagedError | ArchiveError | ArchiveWriteError,
+    ):
         fail(str(err), code=1)
-    except ArchiveWriteError as err:
-        fail(str(err), code=1)
-    except ValidationError as err:
+    from pydantic import ValidationError
+
+    if isinstance(err, ValidationError):
+        from bowlrec.spec import format_validation_error
+
         fail(f"invalid spec\n{format_validation_error(err)}")
-    except (SamplesRequiredError, ValueError) as err:
+    if isinstance(err, ValueError):  # SamplesRequiredError, a bad filter, a bad reference
         fail(str(err))
 
 
