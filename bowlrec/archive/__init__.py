@@ -10,12 +10,15 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+# the function, not its module: ``bowlrec.archive.run_id`` would otherwise become the module
+# ``run_id.py`` as soon as anything imported it (a submodule import sets the package attribute)
+from .run_id import run_id
+
 if TYPE_CHECKING:
     from .balls import BallEntry, BallLibrary, BallNotFoundError, ball_sha, parse_ball_ref
     from .errors import RunDamagedError, SegmentError
     from .index import Filter
     from .location import default_archive_path
-    from .run_id import run_id
     from .segment import RunRecord, SegmentBuilder, SegmentInfo
     from .segment_file import SegmentFile
     from .store import (
@@ -50,7 +53,6 @@ _WHERE = {
     "ball_sha": "balls",
     "default_archive_path": "location",
     "parse_ball_ref": "balls",
-    "run_id": "run_id",
 }
 
 __all__ = [

@@ -186,6 +186,7 @@ class BallLibrary:
 
             with atomic_path(self._dir(name) / f"{version}.json", hold_lock=True) as tmp:
                 tmp.write_text(json.dumps(doc, indent=1) + "\n")
+            self.archive._ball_refs = None
             with transaction(con, write=True):
                 con.execute(
                     "INSERT OR REPLACE INTO balls (name, version, sha, spec_json, added_at, note) "
@@ -251,6 +252,7 @@ class BallLibrary:
             if not known and not path.exists():
                 raise BallNotFoundError(f"no ball {name}@{version} in the library")
             path.unlink(missing_ok=True)  # the file first: a removed ball never comes back
+            self.archive._ball_refs = None
             with transaction(con, write=True):
                 con.execute("DELETE FROM balls WHERE name = ? AND version = ?", (name, version))
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from .index import RUN_TABLE_COLUMNS
-from .segment import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS
+from .segment import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS, SegmentInfo
 from .segment_file import SegmentFile
 
 __all__ = [
@@ -94,23 +94,33 @@ def segment_key(con: sqlite3.Connection, segment_id: str) -> int | None:
     return int(rows[0][0]) if rows else None
 
 
-def segment_row(seg: SegmentFile, rel_path: str, size_bytes: int) -> tuple[Any, ...]:
-    """The ``segments`` table row of an open segment (its key aside)."""
+def segment_row(
+    segment_id: str, provenance: dict[str, Any], n_runs: int, rel_path: str, size_bytes: int
+) -> tuple[Any, ...]:
+    """The ``segments`` table row of a segment (its key aside)."""
     skip = ("format", "format_version", "segment_id", "n_runs")  # not shared by other segments
     prov = {
         k: v
-        for k, v in seg.provenance.items()
+        for k, v in provenance.items()
         if k not in skip and isinstance(v, str | int | float | bool)
     }
     return (
-        seg.segment_id,
+        segment_id,
         rel_path,
-        seg.n_runs,
+        n_runs,
         size_bytes,
         prov.get("bowlrec_version"),
         prov.get("physics_version"),
         json.dumps(prov, sort_keys=True),
     )
+
+
+def _already_registered(con: sqlite3.Connection, key: int, segment_id: str) -> tuple[int, int]:
+    live = con.execute("SELECT COUNT(*) FROM runs WHERE seg = ?", (key,)).fetchall()
+    shadowed = con.execute(
+        "SELECT COUNT(*) FROM shadowed WHERE segment_id = ?", (segment_id,)
+    ).fetchall()
+    return int(live[0][0]), int(shadowed[0][0])
 
 
 def register_segment(
@@ -119,29 +129,31 @@ def register_segment(
     rel_path: str,
     *,
     dead: Iterable[str] = (),
+    info: SegmentInfo | None = None,
 ) -> tuple[int, int]:
     """Index the runs of the segment at ``path`` (inside the caller's write transaction).
 
-    ``dead``: run IDs of this segment that a tombstone names (skipped). Returns (runs now
-    indexed, copies shadowed by an already indexed run). Raises SegmentError for a file that
-    is not a readable segment.
+    ``dead``: run IDs of this segment that a tombstone names (skipped); ``info``: the
+    :class:`SegmentInfo` of a segment sealed in this process (its columns are used instead of
+    reading the file back). Returns (runs now indexed, copies shadowed by an already indexed
+    run). Raises SegmentError for a file that is not a readable segment.
     """
-    with SegmentFile(path) as seg:
-        known = segment_key(con, seg.segment_id)
-        if known is not None:  # registered already (by a recovery in this or another process)
-            live = con.execute("SELECT COUNT(*) FROM runs WHERE seg = ?", (known,)).fetchall()
-            shadowed = con.execute(
-                "SELECT COUNT(*) FROM shadowed WHERE segment_id = ?", (seg.segment_id,)
-            ).fetchall()
-            return int(live[0][0]), int(shadowed[0][0])
-        cur = con.execute(
-            "INSERT INTO segments (segment_id, path, n_runs, size_bytes, bowlrec_version, "
-            "physics_version, provenance_json) VALUES (?, ?, ?, ?, ?, ?, ?)",
-            segment_row(seg, rel_path, path.stat().st_size),
-        )
-        seg_key = int(cur.lastrowid or 0)
-        rows = index_rows(con, seg_key, seg.index_columns())
-        segment_id = seg.segment_id
+    if info is not None and info.index_columns is not None and info.provenance is not None:
+        segment_id, provenance = info.segment_id, info.provenance
+        columns, n_runs = info.index_columns, len(info.run_ids)
+    else:
+        with SegmentFile(path) as seg:
+            segment_id, provenance = seg.segment_id, seg.provenance
+            columns, n_runs = seg.index_columns(), seg.n_runs
+    known = segment_key(con, segment_id)
+    if known is not None:  # registered already (by a recovery in this or another process)
+        return _already_registered(con, known, segment_id)
+    cur = con.execute(
+        "INSERT INTO segments (segment_id, path, n_runs, size_bytes, bowlrec_version, "
+        "physics_version, provenance_json) VALUES (?, ?, ?, ?, ?, ?, ?)",
+        segment_row(segment_id, provenance, n_runs, rel_path, path.stat().st_size),
+    )
+    rows = index_rows(con, int(cur.lastrowid or 0), columns)
     dead_ids = set(dead)
     rows = [r for r in rows if r[0] not in dead_ids]
     existing: set[str] = set()

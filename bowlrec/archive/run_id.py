@@ -13,8 +13,6 @@ import hashlib
 import json
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 if TYPE_CHECKING:
     from bowlrec.core.plan import Plan
 
@@ -25,6 +23,8 @@ RUN_ID_LENGTH = 20
 
 
 def _canonical(value: Any) -> Any:
+    import numpy as np
+
     if isinstance(value, np.ndarray):
         return {"shape": list(value.shape), "data": [_canonical(v) for v in value.ravel()]}
     if isinstance(value, float | np.floating):

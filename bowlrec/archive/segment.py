@@ -13,6 +13,7 @@ are never modified; removal and compaction are the index's and the maintenance m
 
 from __future__ import annotations
 
+import gc
 import hashlib
 import os
 import time
@@ -167,11 +168,17 @@ class RunRecord:
 
 @dataclass(frozen=True)
 class SegmentInfo:
-    """A sealed segment: its ID, path and the IDs of its runs (in row order)."""
+    """A sealed segment: its ID, path and the IDs of its runs (in row order).
+
+    A segment sealed in this process also carries what registering it needs (its per-run
+    index columns and provenance), so registration does not read the file back.
+    """
 
     segment_id: str
     path: Path
     run_ids: tuple[str, ...]
+    index_columns: dict[str, NDArray[Any]] | None = field(default=None, compare=False, repr=False)
+    provenance: dict[str, Any] | None = field(default=None, compare=False, repr=False)
 
 
 # -- digests -------------------------------------------------------------------------------------
@@ -371,5 +378,23 @@ class SegmentBuilder:
             raise ValueError("a segment needs at least one run")
         segment_id = new_segment_id()
         path = Path(directory) / f"{segment_id}.h5"
-        write_segment(path, segment_id, self.columns(), self.provenance, durable=durable)
-        return SegmentInfo(segment_id, path, tuple(r.run_id for r in self.records))
+        collecting = gc.isenabled()
+        gc.disable()  # thousands of small objects: a collection pass here costs, frees nothing
+        try:
+            columns = self.columns()
+        finally:
+            if collecting:
+                gc.enable()
+        write_segment(path, segment_id, columns, self.provenance, durable=durable)
+        index = {k: v for group in ("runs", "summary") for k, v in columns[group].items()}
+        index["n_samples"] = np.diff(columns["trajectory"]["offsets"])
+        provenance = {
+            **self.provenance,
+            "format": SEGMENT_FORMAT,
+            "format_version": SEGMENT_FORMAT_VERSION,
+            "segment_id": segment_id,
+            "n_runs": len(self.records),
+        }
+        return SegmentInfo(
+            segment_id, path, tuple(r.run_id for r in self.records), index, provenance
+        )

@@ -131,7 +131,7 @@ _SMALL_BYTES = 4096
 _CHUNK_BYTES = {"runs": 1 << 20, "summary": 1 << 20, "events": 1 << 20}
 _SLICED_CHUNK_BYTES = 1 << 15
 _SLICED = {"scene_json", "message"}
-_GZIP_LEVEL = 6
+_GZIP_LEVEL = 4
 
 
 def _storage(group: str, name: str, data: NDArray[Any]) -> dict[str, Any]:

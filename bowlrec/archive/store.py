@@ -150,7 +150,8 @@ class Archive:
         #: recently read segments, kept open (least recently used first)
         self._open_segments: OrderedDict[Path, Any] = OrderedDict()
         self._segments_lock = threading.Lock()
-        self._ball_refs: dict[str, str] = {}
+        #: ball-spec SHA-256 -> the newest library reference with that spec (loaded once)
+        self._ball_refs: dict[str, str] | None = None
         marker = self.root / "archive.json"
         if not marker.exists():
             if not create:
@@ -299,10 +300,7 @@ class Archive:
 
         sha = self._ball_sha(run.scene.ball)
         if ball_ref is None:
-            if sha not in self._ball_refs:
-                entry = self.balls.find_sha(sha)
-                self._ball_refs[sha] = entry.ref if entry is not None else ""
-            ball_ref = self._ball_refs[sha]
+            ball_ref = self._library_refs().get(sha, "")
         return RunRecord.from_run(
             run,
             wall_time_s=wall_time_s,
@@ -312,6 +310,16 @@ class Archive:
             pattern=pattern_label(run.scene),
             created_at_ns=created_at_ns,
         )
+
+    def _library_refs(self) -> dict[str, str]:
+        """SHA-256 of each library spec -> ``name@version`` of its newest entry (read once;
+        the library of this Archive forgets it when it changes)."""
+        if self._ball_refs is None:
+            rows = self.index_reader().execute(
+                "SELECT sha, name, version FROM balls ORDER BY added_at, version"
+            )
+            self._ball_refs = {sha: f"{name}@{version}" for sha, name, version in rows}
+        return self._ball_refs
 
     def _ball_sha(self, ball: Any) -> str:
         cached = self._ball_shas.get(id(ball))
@@ -337,16 +345,21 @@ class Archive:
         """Index sealed segments in one transaction: (runs indexed, duplicate copies)."""
         from .registry import register_segment
 
-        paths = [s.path if not isinstance(s, Path) else s for s in segments]
+        items = [(s, None) if isinstance(s, Path) else (s.path, s) for s in segments]
+        paths = [path for path, _ in items]
         added = shadowed = 0
         try:
             with self.writer_lock():
                 con = self.index_writer()
                 with transaction(con, write=True):
                     dead = self._dead_runs(con, paths)
-                    for path in paths:
+                    for path, info in items:
                         a, s = register_segment(
-                            con, path, self._relative(path), dead=dead.get(path.stem, ())
+                            con,
+                            path,
+                            self._relative(path),
+                            dead=dead.get(path.stem, ()),
+                            info=info,
                         )
                         added += a
                         shadowed += s
@@ -643,7 +656,7 @@ class Archive:
 
     def _segment(self, path: Path) -> Any:
         """The segment at ``path``, opened once and kept among the 8 most recently read
-        (segments are immutable: a kept handle never goes stale)."""
+        (segments are immutable: a kept handle never goes stale). Safe across threads."""
         from .segment_file import SegmentFile
 
         with self._segments_lock:
@@ -652,7 +665,9 @@ class Archive:
                 seg = SegmentFile(path)
             self._open_segments[path] = seg
             while len(self._open_segments) > 8:
-                self._open_segments.popitem(last=False)[1].close()
+                # dropped, not closed: another thread may be reading it; HDF5 closes the file
+                # when the last reference goes
+                self._open_segments.popitem(last=False)
         return seg
 
     def close(self) -> None:
