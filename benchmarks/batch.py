@@ -7,7 +7,7 @@ Each configuration runs the same job (a Latin hypercube over speed, rev rate and
 of the bowler example scene) into a fresh archive through :func:`bowlrec.batch.run_prepared`,
 the code path of ``bowlrec batch``: workers simulate, this process adds every run to the
 archive. Also timed: the simulation alone (the same chunks on the same executors, nothing
-written) to separate solver throughput from the single writer's archive cost, and one
+written) to separate solver throughput from the archive cost, and one
 end-to-end ``bowlrec batch`` command (process start-up included). The machine is shared: the
 load average before and after is recorded. Writes ``batch.json`` and ``batch.md``.
 """
@@ -187,9 +187,11 @@ def markdown(data: dict[str, Any]) -> str:
         f"({c['deliveries_per_s']:.1f} deliveries/s, process start-up included).",
         "",
         "batch deliveries/s: runs simulated and added to the archive per second of wall time. "
-        "simulate only: the same runs on the same workers with nothing written. The parent is "
-        "the single archive writer (an HDF5 file, fsync and an index row per run), so the batch "
-        "rate is bounded by 1 / (archive write time) whatever the number of workers.",
+        "simulate only: the same runs on the same workers with nothing written. archive write: "
+        "the parent's time per run to turn a result into a segment record and to seal and "
+        "register segments (every 1,000 runs or every second). The workers simulate one run "
+        "per Python call and the parent prepares and records every run in Python; at 120 runs "
+        "a configuration, worker start-up is a large share of the wall time.",
         "",
     ]
     return "\n".join(lines)

@@ -43,3 +43,26 @@ def test_committed_targets_match_the_measured_numbers() -> None:
     rows = read_block(ROOT / "README.md", "bench").splitlines()[2:6]
     said = [row.rstrip(" |").rsplit("|", 1)[1].strip() == "yes" for row in rows]
     assert said[0] == met["median"] and said[2] == met["batch"] and said[3] == met["cli"]
+
+
+def _targets_table(markdown: str) -> str:
+    lines = markdown.splitlines()
+    start = lines.index("| target | limit | measured | met |")
+    end = start
+    while end < len(lines) and lines[end].startswith("|"):
+        end += 1
+    return "\n".join(lines[start:end]) + "\n"
+
+
+def test_archive_format_doc_shows_the_committed_archive_targets() -> None:
+    """docs/archive-format.md's cost table is the committed benchmark's, and each 'met' cell
+    follows from the measured number and its limit in archive.json."""
+    table = _targets_table((RESULTS / "archive.md").read_text())
+    assert read_block(ROOT / "docs" / "archive-format.md", "archive-targets") == table
+    doc = json.loads((RESULTS / "archive.json").read_text())
+    assert doc["build"]["runs_indexed"] >= 1_000_000  # committed from the full-size run
+    for target in doc["targets"]:
+        limit = float(target["target"].split()[1])
+        assert target["met"] == (target["measured"] <= limit), target["key"]
+        row = next(r for r in table.splitlines() if r.startswith(f"| {target['what']} |"))
+        assert row.rstrip(" |").endswith("yes") == target["met"], row
