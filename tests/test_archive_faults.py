@@ -657,6 +657,54 @@ def test_full_disk(small_disk: Path, template: Template, tmp_path: Path) -> None
     assert len(fresh.list_runs()) == 5
 
 
+def test_full_disk_stops_a_batch_with_one_line_and_its_table(
+    small_disk: Path, template: Template, tmp_path: Path
+) -> None:
+    """A batch whose archive fills up stops with exit 1 and one ``error:`` line, writes its
+    summary table (the runs it could not archive are failed rows that say why), keeps every run
+    archived before, and a rerun after space is freed archives the rest."""
+    import csv
+
+    root = small_disk / "a"
+    archive = Archive(root)
+    for i in range(3):
+        archive.add(_copy(template, i), wall_time_s=0.0)
+    filler = _fill(small_disk)
+    job = tmp_path / "job.json"
+    job.write_text(
+        json.dumps(
+            {
+                "format": "bowlrec-job",
+                "name": "fills",
+                "base": {"options": {"record": "summary"}},
+                "sweep": {
+                    "kind": "grid",
+                    "axes": {"delivery.speed_mps": {"start": 6.0, "stop": 9.0, "num": 40}},
+                },
+            }
+        )
+    )
+    cmd = [*_bowlrec_cli(), "batch", str(job), "-a", str(root), "--workers", "0", "--quiet"]
+    out = subprocess.run([*cmd, "--out", str(tmp_path / "t1")], capture_output=True, text=True)
+    assert out.returncode == 1, out.stderr
+    lines = out.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error:"), out.stderr
+    assert re.search(r"no space", lines[0], re.IGNORECASE), lines[0]
+    with open(tmp_path / "t1.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 40
+    assert all(r["status"] == "failed" and "not archived" in r["error"] for r in rows)
+    fresh = Archive(root)
+    assert sorted(_listed(fresh)) == [f"{i:020x}" for i in range(3)]
+
+    filler.unlink()
+    again = subprocess.run([*cmd, "--out", str(tmp_path / "t2")], capture_output=True, text=True)
+    assert again.returncode == 0, again.stderr
+    with open(tmp_path / "t2.csv", newline="") as fh:
+        assert {r["status"] for r in csv.DictReader(fh)} == {"ok"}
+    assert len(Archive(root).list_runs()) == 43
+
+
 # -- 6. damaged segments -------------------------------------------------------------------------
 
 

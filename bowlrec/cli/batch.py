@@ -115,7 +115,13 @@ def batch(
         fail(str(err))
     finally:
         signal.signal(signal.SIGINT, previous)
-    paths = write_table(result, prefix)
+    try:
+        paths = write_table(result, prefix)
+    except OSError as err:
+        fail(
+            f"could not write the summary table {prefix}.csv ({err.strerror or err}); the "
+            f"{result.counts['ok']} run(s) archived are kept: rerun the same command"
+        )
     c = result.counts
     if not quiet:
         typer.echo(
