@@ -1026,3 +1026,80 @@ def test_reindex_while_another_process_reads(tmp_path: Path, template: Template)
     assert not odd, f"the reader saw partial indexes: counts {odd} (valid: {counts})"
     assert seen == sorted(seen), "the reader saw an older index after a newer one"
     assert len(set(seen)) >= 3, f"the reader saw too few rebuilds to test anything: {set(seen)}"
+
+
+# -- 8. removal, repair and compaction together ----------------------------------------------
+
+
+def test_repair_never_salvages_a_removed_run(tmp_path: Path, template: Template) -> None:
+    """A segment with a removed run and a damaged one: repair rewrites the healthy runs but not
+    the removed one, which stays removed after a rebuild too."""
+    archive = Archive(tmp_path / "a")
+    path = _seal(archive, [_copy(template, i) for i in range(3)])
+    archive.remove(f"{0:020x}")
+    change_value_in_place(path, "summary/time_s", 2)
+    report = archive.repair(min_age_s=0)
+    assert [d["run_id"] for d in report["damaged_runs"]] == [f"{2:020x}"]
+    assert _listed(archive) == [f"{1:020x}"]
+    assert archive.reindex() == 1 and not archive.has_run(f"{0:020x}")
+
+
+def test_compaction_leaves_an_unreadable_segment_for_repair(
+    tmp_path: Path, template: Template
+) -> None:
+    archive = Archive(tmp_path / "a")
+    paths = [_seal(archive, [_copy(template, i)]) for i in range(3)]
+    with open(paths[0], "r+b") as fh:  # the HDF5 signature gone: the file no longer opens
+        fh.write(b"\0" * 8)
+    report = archive.compact()
+    assert report["segments_left_for_repair"] == 1 and report["runs_moved"] == 2
+    assert paths[0].exists() and sorted(_listed(archive)) == [f"{i:020x}" for i in range(3)]
+    repaired = archive.repair(min_age_s=0)
+    assert [d["run_id"] for d in repaired["damaged_runs"]] == [f"{0:020x}"]
+    assert [d["run_id"] for d in archive.damaged()] == [f"{0:020x}"]
+
+
+def test_compaction_keeps_the_duplicate_of_a_damaged_live_copy(
+    tmp_path: Path, template: Template
+) -> None:
+    """One run sealed by two writers (the second copy a duplicate); the live copy is then
+    damaged. Compaction must keep the duplicate, so repair can serve the run from it."""
+    archive = Archive(tmp_path / "a")
+    live = _seal(archive, [_copy(template, 0), _copy(template, 1)])
+    _seal(archive, [_copy(template, 0), _copy(template, 2)])
+    assert archive.info()["duplicate_copies"] == 1
+    change_value_in_place(live, "summary/time_s", 0)
+    archive.compact()
+    archive.repair(min_age_s=0)
+    for i in range(3):
+        assert_same_trajectory(archive.load(f"{i:020x}").trajectory, template.run.trajectory)
+    assert archive.reindex() == 3
+
+
+def test_a_creation_time_copied_from_a_listing_finds_its_run(
+    tmp_path: Path, template: Template
+) -> None:
+    archive = Archive(tmp_path / "a")
+    _seal(archive, [_copy(template, 0)])
+    created = archive.list_runs()[0]["created_at"]
+    assert [r["run_id"] for r in archive.list_runs(where=[f"created_at={created}"])] == [
+        f"{0:020x}"
+    ]
+    assert archive.list_runs(where=[f"created_at>{created}"]) == []
+
+
+def test_the_in_memory_index_serves_concurrent_threads(tmp_path: Path, template: Template) -> None:
+    """A process that may not write lists from an index built in memory; threads share it."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from bowlrec.archive.maintenance import memory_index
+
+    archive = Archive(tmp_path / "a")
+    _seal(archive, [_copy(template, i) for i in range(20)])
+    archive._memory = memory_index(archive)  # what a reader without write access gets
+
+    def work(_: int) -> int:
+        return sum(len(archive.list_runs(where=["hook_m>=0"])) for _ in range(50))
+
+    with ThreadPoolExecutor(4) as pool:
+        assert list(pool.map(work, range(4))) == [50 * 20] * 4

@@ -15,9 +15,11 @@ from collections import defaultdict
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.sinks.atomic import fsync_dir
+
 from .index import transaction
 from .registry import register_segment
-from .segment import SegmentBuilder, SegmentInfo
+from .segment import RunRecord, SegmentBuilder, SegmentInfo
 from .segment_file import RunDamagedError, SegmentError, SegmentFile
 from .tombstones import TOMBSTONE_FORMAT, Tombstone, read_tombstones
 
@@ -45,8 +47,29 @@ def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
     return [(r[0], r[1], r[3]) for r in rows if r[0] in chosen]
 
 
+def _carried(archive: Archive, con: Any, seg: SegmentFile, seg_id: str) -> list[RunRecord]:
+    """The runs of a chosen segment to rewrite: its live runs, and its duplicate copies whose
+    live copy does not read back (so repair can still fall back to them). Raises
+    RunDamagedError when a live run of this segment is damaged."""
+    rows = con.execute(
+        "SELECT row FROM runs WHERE seg = (SELECT seg FROM segments WHERE segment_id = ?) "
+        "ORDER BY row",
+        (seg_id,),
+    ).fetchall()
+    records = [seg.read_run(int(row)).to_record() for (row,) in rows]
+    for run_id, row in con.execute(
+        "SELECT run_id, row FROM shadowed WHERE segment_id = ?", (seg_id,)
+    ).fetchall():
+        try:
+            archive.load(run_id)
+        except (RunDamagedError, KeyError):
+            records.append(seg.read_run(int(row)).to_record())
+    return records
+
+
 def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
-    """Rewrite and merge segments (see the module doc); counts of what was done."""
+    """Rewrite and merge segments (see the module doc); counts of what was done. A segment
+    that cannot be read whole is left as it is, for ``runs repair``."""
     with archive.writer_lock():
         con = archive.index_writer()
         chosen = _candidates(con, target_runs)
@@ -54,7 +77,8 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
         for seg_id, rel, prov in chosen:
             groups[prov].append((seg_id, rel))
         sealed: list[SegmentInfo] = []
-        damaged: list[tuple[str, str, str]] = []
+        old: list[tuple[str, str]] = []
+        skipped: list[str] = []
         moved = 0
         for prov, members in groups.items():
             provenance = {
@@ -64,27 +88,21 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
             }
             builder = SegmentBuilder(provenance)
             for seg_id, rel in sorted(members):
-                rows = con.execute(
-                    "SELECT row FROM runs WHERE seg = "
-                    "(SELECT seg FROM segments WHERE segment_id = ?) ORDER BY row",
-                    (seg_id,),
-                ).fetchall()
                 try:
                     with SegmentFile(archive.root / rel) as seg:
-                        for (row,) in rows:
-                            try:
-                                builder.append(seg.read_run(int(row)).to_record())
-                                moved += 1
-                            except RunDamagedError as err:
-                                damaged.append((seg_id, err.run_id, f"damaged: {err.reason}"))
-                            if len(builder) >= target_runs:
-                                sealed.append(builder.seal(archive.segments_dir))
-                                builder = SegmentBuilder(provenance)
-                except (SegmentError, OSError):
-                    continue  # left for `runs repair`, which quarantines it
+                        records = _carried(archive, con, seg, seg_id)
+                except (SegmentError, OSError, RunDamagedError):
+                    skipped.append(seg_id)  # left in place: `runs repair` quarantines damage
+                    continue
+                old.append((seg_id, rel))
+                for record in records:
+                    builder.append(record)
+                    moved += 1
+                    if len(builder) >= target_runs:
+                        sealed.append(archive.seal(builder))
+                        builder = SegmentBuilder(provenance)
             if len(builder):
-                sealed.append(builder.seal(archive.segments_dir))
-        old = [(s, r) for s, r, _ in chosen]
+                sealed.append(archive.seal(builder))
         with transaction(con, write=True):
             for seg_id, _ in old:
                 con.execute(
@@ -94,21 +112,19 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
                 con.execute("DELETE FROM shadowed WHERE segment_id = ?", (seg_id,))
                 con.execute("DELETE FROM segments WHERE segment_id = ?", (seg_id,))
             for info in sealed:
-                register_segment(con, info.path, str(info.path.relative_to(archive.root)))
-            for seg_id, rid, reason in damaged:
-                con.execute(
-                    "INSERT OR REPLACE INTO damaged (segment_id, run_id, reason, detected_at) "
-                    "VALUES (?, ?, ?, ?)",
-                    (seg_id, rid, reason, _now()),
+                register_segment(
+                    con, info.path, str(info.path.relative_to(archive.root)), info=info
                 )
+        archive.close()
         for _, rel in old:
             (archive.root / rel).unlink(missing_ok=True)
-        dropped = _drop_applied_tombstones(archive, con)
+        fsync_dir(archive.segments_dir)  # the deletions reach the disk before the tombstones go
+        dropped = _drop_applied_tombstones(archive, con, {seg_id for seg_id, _ in old})
     return {
         "segments_rewritten": len(old),
         "segments_written": len(sealed),
+        "segments_left_for_repair": len(skipped),
         "runs_moved": moved,
-        "runs_damaged": len(damaged),
         "tombstone_files_deleted": dropped,
     }
 
@@ -143,21 +159,21 @@ def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
             tmp.write_text(json.dumps(report, indent=1) + "\n")
 
 
-def _drop_applied_tombstones(archive: Archive, con: Any) -> int:
-    """Delete tombstones of segments that no longer exist (index rows and files)."""
+def _drop_applied_tombstones(archive: Archive, con: Any, removed: set[str]) -> int:
+    """Delete the tombstones of the segments this compaction deleted (index rows and files);
+    the count of tombstone files deleted."""
     from bowlrec.sinks.atomic import atomic_path
 
-    existing = {p.stem for p in archive.segments_dir.glob("*.h5")}
     deleted = 0
     with transaction(con, write=True):
-        con.execute(
-            "DELETE FROM tombstones WHERE segment_id NOT IN (SELECT segment_id FROM segments)"
+        con.executemany(
+            "DELETE FROM tombstones WHERE segment_id = ?", [(seg_id,) for seg_id in removed]
         )
     for path, entries in list(read_tombstones(archive.tombstones_dir)):
-        keep = [e for e in entries if e.segment_id in existing]
+        keep = [e for e in entries if e.segment_id not in removed]
         if len(keep) == len(entries):
             continue
-        _keep_damage_records(archive, [e for e in entries if e.segment_id not in existing])
+        _keep_damage_records(archive, [e for e in entries if e.segment_id in removed])
         if keep:
             doc = {"format": TOMBSTONE_FORMAT, "entries": [e.__dict__ for e in keep]}
             with atomic_path(path, hold_lock=True) as tmp:

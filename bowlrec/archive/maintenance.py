@@ -53,7 +53,8 @@ def _apply_tombstone_files(archive: Archive, con: sqlite3.Connection) -> int:
     for path, entries in read_tombstones(archive.tombstones_dir):
         if path.name in seen:
             continue
-        _record_tombstones(con, entries)
+        orphaned = _record_tombstones(con, entries)
+        promote_copies(archive, con, orphaned)
         con.execute("INSERT OR IGNORE INTO tombstone_files (name) VALUES (?)", (path.name,))
         n += 1
     return n
@@ -230,6 +231,8 @@ def _populate(archive: Archive, con: sqlite3.Connection) -> dict[str, int]:
 def rebuild_index(archive: Archive) -> dict[str, int]:
     """Write a new index from the data files and rename it over the old one (hold the writer
     lock). Counts of what was indexed."""
+    for leftover in archive.root.glob(f"{archive.index_path.name}.rebuild-*"):
+        leftover.unlink(missing_ok=True)  # left by a rebuild that was killed (we hold the lock)
     tmp = archive.index_path.with_name(f"{archive.index_path.name}.rebuild-{uuid.uuid4().hex[:8]}")
     con = new_index(tmp)
     try:

@@ -69,7 +69,7 @@ def _quarantine(
             builder = SegmentBuilder(_provenance(seg))
             for rec in seg.read_all(healthy_rows):
                 builder.append(rec.to_record())
-        salvaged = builder.seal(archive.segments_dir)
+        salvaged = archive.seal(builder)
     archive.quarantine_dir.mkdir(exist_ok=True)
     at = datetime.now(UTC).isoformat(timespec="seconds")
     report = {
@@ -153,7 +153,19 @@ def repair(archive: Archive, *, min_age_s: float = 2.0) -> dict[str, Any]:
                     ).fetchall()
                     register_segment(con, path, rel, dead=[r[0] for r in dead])
             if bad:
-                damaged = {ids[i] if i < len(ids) else f"row {i}": why for i, why in bad.items()}
+                # removed runs stay removed: neither salvaged nor listed as damaged
+                removed = {
+                    r[0]
+                    for r in con.execute(
+                        "SELECT run_id FROM tombstones WHERE segment_id = ?", (segment_id,)
+                    )
+                }
+                healthy = [i for i in healthy if ids[i] not in removed]
+                damaged = {
+                    ids[i] if i < len(ids) else f"row {i}": why
+                    for i, why in bad.items()
+                    if i >= len(ids) or ids[i] not in removed
+                }
                 _quarantine(archive, con, segment_id, path, damaged, healthy)
                 damaged_runs += [
                     {"run_id": r, "segment_id": segment_id, "reason": why}

@@ -157,7 +157,11 @@ class RunRecord:
             mass_kg=float(plan.mass_kg),
             rtol=float(plan.rtol),
             wall_time_s=float(wall_time_s),
-            created_at_ns=time.time_ns() if created_at_ns is None else created_at_ns,
+            # whole microseconds: the precision listings show, so a time copied from a listing
+            # finds the run again in a created_at filter
+            created_at_ns=(time.time_ns() if created_at_ns is None else created_at_ns)
+            // 1000
+            * 1000,
             trajectory={name: getattr(traj, name) for name in TRAJECTORY_FIELDS}
             if traj.n_samples
             else {},

@@ -528,9 +528,9 @@ class Archive:
             if value is not None:
                 filters.append(Filter(column, "=", value))
         sql, params = select_sql(filters, order_by, limit, clauses)
-        con = self.index_reader()
-        with transaction(con):
-            return [listed_row(r) for r in con.execute(sql, params)]
+        # one SELECT reads one consistent snapshot (and the in-memory index of a process that
+        # may not write is shared by its threads: no transaction is opened on it)
+        return [listed_row(r) for r in self.index_reader().execute(sql, params)]
 
     def _ball_clause(self, ball: str) -> tuple[str, list[Any]]:
         """Runs that used library ball ``name`` (any version) or ``name@version``: by the
@@ -627,13 +627,18 @@ class Archive:
             run_id = self.resolve_id(run_id)
             found = self.locate(run_id)
             assert found is not None
-        segment_id, row, path = found
-        try:
-            rec = self._segment(path).read_run(row)
-        except SegmentError as err:
-            raise RunDamagedError(run_id, segment_id, f"unreadable segment: {err}") from None
-        except FileNotFoundError:
-            raise RunDamagedError(run_id, segment_id, "segment file missing") from None
+        for attempt in (1, 2):
+            segment_id, row, path = found
+            try:
+                rec = self._segment(path).read_run(row)
+                break
+            except SegmentError as err:
+                moved = self.locate(run_id)
+                if attempt == 1 and moved is not None and moved != found:
+                    found = moved  # rewritten by a compaction in another process: read it there
+                    continue
+                reason = "segment file missing" if not path.exists() else f"unreadable: {err}"
+                raise RunDamagedError(run_id, segment_id, reason) from None
         if rec.run_id != run_id:
             raise RunDamagedError(run_id, segment_id, f"row {row} holds run {rec.run_id}")
         scene = Scene.model_validate_json(rec.scene_json)

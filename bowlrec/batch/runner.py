@@ -337,9 +337,15 @@ class _Writer:
         self._pending, self.builder = [], self.archive.builder()
         try:
             info = self.archive.seal(builder, durable=self.durable)
-            self.archive.register([info])
         except ArchiveWriteError as err:
             self.failed_rows = self._fail(pending, str(err))
+            self.write_s += time.perf_counter() - start
+            raise
+        try:
+            self.archive.register([info])
+        except ArchiveWriteError:
+            # the runs are sealed on disk: the next writer registers them, so they stay "ok"
+            self.failed_rows = 0
             raise
         finally:
             self.write_s += time.perf_counter() - start

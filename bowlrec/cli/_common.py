@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -100,6 +101,14 @@ def _exit_for(err: Exception) -> None:
         fail(f"invalid spec\n{format_validation_error(err)}")
     if isinstance(err, ValueError):  # SamplesRequiredError, a bad filter, a bad reference
         fail(str(err))
+    import sqlite3
+
+    if isinstance(err, sqlite3.Error):  # e.g. "database or disk is full"
+        fail(f"the archive's index: {err}; nothing already archived was lost", code=1)
+    if isinstance(err, OSError):  # e.g. a full disk while removing, repairing or compacting
+        reason = os.strerror(err.errno) if err.errno else " ".join(str(err).split())
+        where = f" ({err.filename})" if getattr(err, "filename", None) else ""
+        fail(f"{reason}{where}; nothing already archived was lost", code=1)
 
 
 def with_status(message: str, quiet: bool, fn: Callable[..., Any], *args: Any) -> Any:

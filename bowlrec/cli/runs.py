@@ -215,7 +215,7 @@ def remove(
     runs: Annotated[list[str], typer.Argument(help="Run IDs (or unique prefixes).")],
     archive: ArchiveOption = None,
 ) -> None:
-    """Remove runs from the archive (index row and file)."""
+    """Remove runs from the archive (a tombstone: `runs compact` reclaims the space)."""
     store = _open(archive, create=False)
     with archive_errors():
         for run in runs:
@@ -277,6 +277,12 @@ def compact(
         f" ({report['runs_moved']} run(s) moved, {report['tombstone_files_deleted']} tombstone "
         "file(s) applied and deleted)"
     )
+    if report["segments_left_for_repair"]:
+        typer.echo(
+            f"{report['segments_left_for_repair']} segment(s) could not be read whole and were "
+            "left as they are: run `bowlrec runs repair`",
+            err=True,
+        )
 
 
 @archive_app.command("migrate")
