@@ -57,7 +57,6 @@ import platform
 import pstats
 import random
 import shutil
-import signal
 import socket
 import sqlite3
 import statistics
@@ -71,6 +70,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from bowlrec.archive.segment import SUMMARY_FLOAT_COLUMNS
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -86,16 +87,8 @@ LIST_QUERY: dict[str, Any] = {"outcome": "pins", "where": ["hook_m>=0.3"], "limi
 #: a supplementary, selective query (not a target): few rows match, so more of the index is read
 RARE_QUERY: dict[str, Any] = {"outcome": "pins", "where": ["hook_m>=1.45"], "limit": 50}
 SINGLE_EVERY = 50
-SUMMARY_JITTER = (
-    "slide_m",
-    "hook_m",
-    "pocket_deg",
-    "time_s",
-    "x_end_m",
-    "y_end_m",
-    "speed_end_mps",
-    "rev_rate_end_rpm",
-)
+#: the summary floats jittered per synthetic run (every float metric of the segment format)
+SUMMARY_JITTER = SUMMARY_FLOAT_COLUMNS
 
 TARGETS: dict[str, tuple[str, float, str]] = {
     # key: (what, limit, unit)
@@ -554,34 +547,11 @@ def _free_port() -> int:
 @contextlib.contextmanager
 def server(archive_dir: Path) -> Iterator[tuple[str, float]]:
     """A ``bowlrec serve`` subprocess on 127.0.0.1; yields (base URL, start-up s)."""
-    import httpx
+    from benchmarks.service import server as serve
 
-    port = _free_port()
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    cmd = [str(BIN / "bowlrec"), "serve", "-a", str(archive_dir), "--port", str(port)]
     t0 = time.perf_counter()
-    proc = subprocess.Popen(
-        [*cmd, "--log-level", "warning"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL
-    )
-    url = f"http://127.0.0.1:{port}"
-    try:
-        deadline = time.monotonic() + 120
-        while True:
-            try:
-                if httpx.get(f"{url}/health", timeout=1).status_code == 200:
-                    break
-            except httpx.TransportError:
-                if proc.poll() is not None or time.monotonic() > deadline:
-                    raise RuntimeError("the server did not start") from None
-                time.sleep(0.05)
+    with serve(archive_dir) as url:
         yield url, time.perf_counter() - t0
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
 
 
 def http_reads(archive_dir: Path, ids: list[str]) -> dict[str, Any]:

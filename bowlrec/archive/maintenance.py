@@ -50,9 +50,7 @@ def _apply_tombstone_files(archive: Archive, con: sqlite3.Connection) -> int:
     """Record tombstone files the index has not seen; drop the copies they name. The count."""
     seen = {r[0] for r in con.execute("SELECT name FROM tombstone_files")}
     n = 0
-    for path, entries in read_tombstones(archive.tombstones_dir):
-        if path.name in seen:
-            continue
+    for path, entries in read_tombstones(archive.tombstones_dir, skip=seen):
         orphaned = _record_tombstones(con, entries)
         promote_copies(archive, con, orphaned)
         con.execute("INSERT OR IGNORE INTO tombstone_files (name) VALUES (?)", (path.name,))

@@ -43,12 +43,17 @@ def write_tombstone(directory: Path, entries: Iterable[Tombstone]) -> Path | Non
     return path
 
 
-def read_tombstones(directory: Path) -> Iterator[tuple[Path, list[Tombstone]]]:
-    """Every tombstone file with its entries, oldest first (unreadable files are skipped: a
-    tombstone is written whole, so only a file damaged on disk is unreadable)."""
+def read_tombstones(
+    directory: Path, *, skip: frozenset[str] | set[str] = frozenset()
+) -> Iterator[tuple[Path, list[Tombstone]]]:
+    """Every tombstone file with its entries, oldest first, but the file names in ``skip``
+    (unreadable files are skipped: a tombstone is written whole, so only a file damaged on
+    disk is unreadable)."""
     if not directory.is_dir():
         return
     for path in sorted(directory.glob("*.json")):
+        if path.name in skip:
+            continue
         try:
             doc = json.loads(path.read_text())
             if doc.get("format") != TOMBSTONE_FORMAT:
