@@ -1052,7 +1052,7 @@ def test_compaction_leaves_an_unreadable_segment_for_repair(
     with open(paths[0], "r+b") as fh:  # the HDF5 signature gone: the file no longer opens
         fh.write(b"\0" * 8)
     report = archive.compact()
-    assert report["segments_left_for_repair"] == 1 and report["runs_moved"] == 2
+    assert report["segments_left"] == 1 and report["runs_moved"] == 2
     assert paths[0].exists() and sorted(_listed(archive)) == [f"{i:020x}" for i in range(3)]
     repaired = archive.repair(min_age_s=0)
     assert [d["run_id"] for d in repaired["damaged_runs"]] == [f"{0:020x}"]

@@ -488,6 +488,11 @@ class SegmentFile:
                 damaged[i] = "digest mismatch"
         return healthy, damaged
 
+    def unknown_groups(self) -> list[str]:
+        """Groups this reader does not know (a later 2.x version's additions): it reads and
+        checks their rows but cannot rewrite them into another segment."""
+        return sorted(g for g in self._f if g not in _KNOWN_GROUPS)
+
     def _extra_groups(self) -> list[str]:
         """Per-run record groups this reader does not know (added by a later 2.x minor)."""
         return sorted(g for g in self._f if g not in _KNOWN_GROUPS and "offsets" in self._f[g])

@@ -277,10 +277,11 @@ def compact(
         f" ({report['runs_moved']} run(s) moved, {report['tombstone_files_deleted']} tombstone "
         "file(s) applied and deleted)"
     )
-    if report["segments_left_for_repair"]:
+    if report["segments_left"]:
         typer.echo(
-            f"{report['segments_left_for_repair']} segment(s) could not be read whole and were "
-            "left as they are: run `bowlrec runs repair`",
+            f"{report['segments_left']} segment(s) were left as they are (damaged or unreadable: "
+            "run `bowlrec runs repair`; or written by a later bowlrec with record types this "
+            "one cannot rewrite)",
             err=True,
         )
 
