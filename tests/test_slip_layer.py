@@ -40,9 +40,9 @@ def _slide(plan, rtol: float, **kw: float) -> float:  # type: ignore[no-untyped-
     return float(s.slide_m)
 
 
-# random002: the slip creeps to zero (0.7 m/s^2) and the ball rolls for only 2 ms (was 6.2 mm off
-# at rtol 1e-6 and 0.56 m at 1e-5); random104: a large step ran past |s| = 0 (2.1 mm);
-# random164: the slip turns by 30 degrees on its last 0.1 mm/s (1.5 mm).
+# random002: the slip creeps to zero (0.7 m/s^2) and the ball rolls for only 2 ms (a step
+# across |s| = 0 would miss the root by mm); random104: a large step would run past |s| = 0;
+# random164: the slip turns by 30 degrees on its last 0.1 mm/s.
 @pytest.mark.parametrize("name", ["random002", "random104", "random164"])
 def test_slide_is_accurate_at_loose_tolerances(name: str) -> None:
     plan = PLANS[name]

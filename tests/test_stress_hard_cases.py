@@ -573,11 +573,9 @@ def test_slide_converges_at_tight_tolerances() -> None:
     along the slaved direction for |s| < s_layer = 1e4 rtol) can shift the slide->roll point,
     v0 s_layer / (mu_min g): 2.4e-8 m / 7.6e-8 m / 7.6e-8 m at rtol 1e-12 for these balls.
 
-    These balls used to report the slide->roll point late by 5.5e-7 m to 2.7e-3 m (a strict
-    xfail until session 3). Fixed together with the loose-tolerance slide errors: steps aim at
-    the slip layer instead of across |s| = 0, and inside the layer the slip runs straight to zero
-    (``dynamics.radial_direction``). (Session 3 also error-checked the step redone to an event
-    time; since session 4 the state at an event comes from the dense output, with no redo.)"""
+    Stepping across |s| = 0 would report the slide->roll point late by 5.5e-7 m to 2.7e-3 m:
+    steps aim at the slip layer instead, inside the layer the slip runs straight to zero
+    (``dynamics.radial_direction``), and the state at an event comes from the dense output."""
 
     def slide(d: dict[str, Any], rtol: float) -> float:
         d = json.loads(json.dumps(d))
