@@ -23,8 +23,9 @@ PHYSICS_VERSION = "frohlich2004-dp54-3"
 
 if TYPE_CHECKING:
     from .api import simulate
+    from .batch.many import simulate_many
 
-__all__ = ["PHYSICS_VERSION", "__version__", "simulate"]
+__all__ = ["PHYSICS_VERSION", "__version__", "simulate", "simulate_many"]
 
 
 def __getattr__(name: str) -> Any:
@@ -32,4 +33,8 @@ def __getattr__(name: str) -> Any:
         from .api import simulate
 
         return simulate
+    if name == "simulate_many":
+        from .batch.many import simulate_many
+
+        return simulate_many
     raise AttributeError(f"module 'bowlrec' has no attribute {name!r}")

@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from .errors import RunDamagedError, SegmentError
     from .index import Filter
     from .location import default_archive_path
-    from .segment import RunRecord, SegmentBuilder, SegmentInfo
+    from .segment import RunRecord, SegmentBuilder, SegmentInfo, SummaryRuns
     from .segment_file import SegmentFile
     from .store import (
         ARCHIVE_FORMAT,
@@ -47,6 +47,7 @@ _WHERE = {
     "RunNotFoundError": "store",
     "RunRecord": "segment",
     "SegmentBuilder": "segment",
+    "SummaryRuns": "segment",
     "SegmentError": "errors",
     "SegmentFile": "segment_file",
     "SegmentInfo": "segment",
@@ -70,6 +71,7 @@ __all__ = [
     "RunNotFoundError",
     "RunRecord",
     "SegmentBuilder",
+    "SummaryRuns",
     "SegmentError",
     "SegmentFile",
     "SegmentInfo",

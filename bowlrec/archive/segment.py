@@ -43,8 +43,10 @@ __all__ = [
     "RunRecord",
     "SegmentBuilder",
     "SegmentInfo",
+    "SummaryRuns",
     "new_segment_id",
     "run_digest",
+    "seal_columns",
 ]
 
 SEGMENT_FORMAT = "bowlrec-segment"
@@ -204,9 +206,11 @@ def run_digest(
     matrices, then the rows of any further per-run record group (later 2.x versions). Returns 32
     hex digits as ASCII bytes.
     """
-    parts = (fixed_row, scene, message, events, samples, torques, *extra)
-    framed = b"".join(b for part in parts for b in (len(part).to_bytes(8, "little"), bytes(part)))
-    return hashlib.blake2b(framed, digest_size=16).hexdigest().encode()
+    h = hashlib.blake2b(digest_size=16)
+    for part in (fixed_row, scene, message, events, samples, torques, *extra):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest().encode()
 
 
 def row_matrix(columns: Sequence[NDArray[Any]], n: int) -> NDArray[np.uint8]:
@@ -376,12 +380,8 @@ class SegmentBuilder:
 
     def seal(self, directory: str | os.PathLike[str], *, durable: bool = True) -> SegmentInfo:
         """Write the segment under ``directory`` whole or not at all; its info."""
-        from .segment_file import write_segment
-
         if not self.records:
             raise ValueError("a segment needs at least one run")
-        segment_id = new_segment_id()
-        path = Path(directory) / f"{segment_id}.h5"
         collecting = gc.isenabled()
         gc.disable()  # thousands of small objects: a collection pass here costs, frees nothing
         try:
@@ -389,16 +389,144 @@ class SegmentBuilder:
         finally:
             if collecting:
                 gc.enable()
-        write_segment(path, segment_id, columns, self.provenance, durable=durable)
-        index = {k: v for group in ("runs", "summary") for k, v in columns[group].items()}
-        index["n_samples"] = np.diff(columns["trajectory"]["offsets"])
-        provenance = {
-            **self.provenance,
-            "format": SEGMENT_FORMAT,
-            "format_version": SEGMENT_FORMAT_VERSION,
-            "segment_id": segment_id,
-            "n_runs": len(self.records),
-        }
-        return SegmentInfo(
-            segment_id, path, tuple(r.run_id for r in self.records), index, provenance
+        return seal_columns(directory, columns, self.provenance, durable=durable)
+
+
+def seal_columns(
+    directory: str | os.PathLike[str],
+    columns: dict[str, Any],
+    provenance: dict[str, Any],
+    *,
+    durable: bool = True,
+) -> SegmentInfo:
+    """Write a segment's datasets (as :meth:`SegmentBuilder.columns` makes them) as a new
+    sealed segment under ``directory``; its info."""
+    from .segment_file import write_segment
+
+    segment_id = new_segment_id()
+    path = Path(directory) / f"{segment_id}.h5"
+    write_segment(path, segment_id, columns, provenance, durable=durable)
+    index = {k: v for group in ("runs", "summary") for k, v in columns[group].items()}
+    index["n_samples"] = np.diff(columns["trajectory"]["offsets"])
+    run_ids = tuple(v.decode() for v in columns["runs"]["run_id"].tolist())
+    info = {
+        **provenance,
+        "format": SEGMENT_FORMAT,
+        "format_version": SEGMENT_FORMAT_VERSION,
+        "segment_id": segment_id,
+        "n_runs": len(run_ids),
+    }
+    return SegmentInfo(segment_id, path, run_ids, index, info)
+
+
+@dataclass
+class SummaryRuns:
+    """Summary-only runs as columns (n runs): what :class:`RunRecord` holds for each, without
+    a Python object per run. ``strings``: the :data:`RUN_STRING_COLUMNS` (a list of n, or one
+    str shared by all); ``floats``: :data:`RUN_FLOAT_COLUMNS` (arrays of n); ``summary``:
+    ``outcome`` (str array), :data:`SUMMARY_FLOAT_COLUMNS` (NaN: None) and
+    :data:`SUMMARY_INT_COLUMNS`; ``messages``: one per run; ``events``: (n, cap, 6) rows as the
+    kernels write them (t, kind code, x, y, mu, rolling) with ``n_events`` per run."""
+
+    strings: dict[str, list[str] | str]
+    floats: dict[str, NDArray[np.float64]]
+    created_at_ns: int
+    scene_json: list[bytes]
+    summary: dict[str, NDArray[Any]]
+    messages: list[str]
+    events: NDArray[np.float64]
+    n_events: NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return len(self.scene_json)
+
+    def run_ids(self) -> list[str]:
+        ids = self.strings["run_id"]
+        return [ids] if isinstance(ids, str) else list(ids)
+
+    def select(self, keep: Sequence[int]) -> SummaryRuns:
+        """The runs at positions ``keep`` (in that order)."""
+        rows = np.asarray(keep, dtype=np.int64)
+        pick = rows.tolist()
+        return SummaryRuns(
+            strings={
+                k: v if isinstance(v, str) else [v[i] for i in pick]
+                for k, v in self.strings.items()
+            },
+            floats={k: np.asarray(v)[rows] for k, v in self.floats.items()},
+            created_at_ns=self.created_at_ns,
+            scene_json=[self.scene_json[i] for i in pick],
+            summary={k: np.asarray(v)[rows] for k, v in self.summary.items()},
+            messages=[self.messages[i] for i in pick],
+            events=self.events[rows],
+            n_events=self.n_events[rows],
         )
+
+    def columns(self) -> dict[str, Any]:
+        """Every dataset of a segment holding these runs (as :meth:`SegmentBuilder.columns`
+        makes them for the same runs appended as records)."""
+        from bowlrec.core.trajectory import EVENT_KINDS
+
+        n = len(self)
+        runs: dict[str, NDArray[Any]] = {}
+        for name in RUN_STRING_COLUMNS:
+            v = self.strings[name]
+            runs[name] = _strings([v] * n if isinstance(v, str) else v)
+        for name in RUN_FLOAT_COLUMNS:
+            runs[name] = np.asarray(self.floats[name], dtype=np.float64)
+        runs["created_at_ns"] = np.full(n, self.created_at_ns // 1000 * 1000, dtype=np.int64)
+        summary: dict[str, NDArray[Any]] = {"outcome": _strings(self.summary["outcome"].tolist())}
+        for name in SUMMARY_FLOAT_COLUMNS:
+            summary[name] = np.asarray(self.summary[name], dtype=np.float64)
+        for name in SUMMARY_INT_COLUMNS:
+            summary[name] = np.asarray(self.summary[name], dtype=np.int64)
+        scene_bytes, scene_offsets = _concat(self.scene_json)
+        message_bytes, message_offsets = _concat([m.encode() for m in self.messages])
+        keep = np.arange(self.events.shape[1])[None, :] < self.n_events[:, None]
+        rows = self.events[keep]  # run by run, in event order
+        offsets = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(self.n_events, out=offsets[1:])
+        kinds = {code: name.encode() for code, name in EVENT_KINDS.items()}
+        events: dict[str, NDArray[Any]] = {
+            "kind": _fixed([kinds[int(c)] for c in rows[:, 1]]),
+            "mu": rows[:, 4].copy(),
+            "phase": _fixed([b"rolling" if r == 1.0 else b"sliding" for r in rows[:, 5]]),
+            "t_s": rows[:, 0].copy(),
+            "x_m": rows[:, 2].copy(),
+            "y_m": rows[:, 3].copy(),
+            "offsets": offsets,
+        }
+        zero = np.zeros(n + 1, dtype=np.int64)
+        fixed = row_matrix(fixed_columns(runs, summary), n)
+        ev_m = row_matrix(event_columns(events), int(rows.shape[0]))
+        empty = b""
+        digests = [
+            run_digest(
+                fixed[i].data,
+                scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
+                message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
+                ev_m[offsets[i] : offsets[i + 1]].data,
+                empty,
+                empty,
+            )
+            for i in range(n)
+        ]
+        runs["digest"] = np.array(digests, dtype="S32")
+        runs["scene_json"] = scene_bytes
+        runs["scene_json_offsets"] = scene_offsets
+        summary["message"] = message_bytes
+        summary["message_offsets"] = message_offsets
+        return {
+            "runs": runs,
+            "summary": summary,
+            "events": events,
+            "trajectory": {"offsets": zero},
+            "torques": {"offsets": zero.copy()},
+            "_terms": np.array([], dtype="S64"),
+        }
+
+
+def _fixed(values: list[bytes]) -> NDArray[np.bytes_]:
+    if not values:
+        return np.zeros(0, dtype="S1")
+    return np.array(values, dtype=np.bytes_)

@@ -52,7 +52,7 @@ if TYPE_CHECKING:
     from bowlrec.sinks.hdf5_run import StoredRun
     from bowlrec.spec import Scene
 
-    from .segment import RunRecord, SegmentBuilder, SegmentInfo
+    from .segment import RunRecord, SegmentBuilder, SegmentInfo, SummaryRuns
 
 __all__ = [
     "ARCHIVE_FORMAT",
@@ -331,9 +331,17 @@ class Archive:
         self._ball_shas[id(ball)] = (ball, sha)
         return sha
 
-    def seal(self, builder: SegmentBuilder, *, durable: bool = True) -> SegmentInfo:
-        """Write the builder's runs as a sealed segment of this archive (not yet registered)."""
+    def seal(self, builder: SegmentBuilder | SummaryRuns, *, durable: bool = True) -> SegmentInfo:
+        """Write the builder's runs (or columns of summary-only runs) as a sealed segment of
+        this archive (not yet registered)."""
+        from .provenance import environment
+        from .segment import SummaryRuns, seal_columns
+
         try:
+            if isinstance(builder, SummaryRuns):
+                return seal_columns(
+                    self.segments_dir, builder.columns(), environment(), durable=durable
+                )
             return builder.seal(self.segments_dir, durable=durable)
         except OSError as err:
             raise ArchiveWriteError(

@@ -1,5 +1,6 @@
-"""Batch jobs: sweeps over scene fields, run on local processes or a Dask cluster, with the
-calling process as the archive's single writer and a summary table per job.
+"""Batch jobs: sweeps over scene fields, run chunk by chunk on local processes or a Dask cluster;
+workers prepare, simulate and seal archive segments, the calling process registers them and
+collects a summary table per job.
 
 Typical use (what ``bowlrec batch`` does)::
 
@@ -10,9 +11,11 @@ Typical use (what ``bowlrec batch`` does)::
     result = run_job(job, Archive("runs"), base_dir="examples/jobs")
     write_table(result, "speed-rev-grid")
 
+or, from a notebook, :func:`simulate_many` (a table back, nothing stored by default).
 Imports neither numba nor dask until something is run.
 """
 
+from .chunks import FAILED_OUTCOMES, METRIC_COLUMNS, ChunkTable
 from .job import (
     JOB_FORMAT,
     JobError,
@@ -20,23 +23,24 @@ from .job import (
     Point,
     PreparedRun,
     apply_override,
+    job_context,
     job_schema_text,
     latin_hypercube,
     load_job,
     parse_path,
     prepare_runs,
 )
-from .runner import (
-    FAILED_OUTCOMES,
-    METRIC_COLUMNS,
-    BatchProgress,
-    BatchResult,
-    InlineExecutor,
-    run_job,
-    run_prepared,
-    simulate_chunk,
+from .many import simulate_many
+from .runner import BatchProgress, BatchResult, InlineExecutor, run_job
+from .table import (
+    TableWriter,
+    table_columns,
+    table_paths,
+    table_rows,
+    to_arrow,
+    to_numpy,
+    write_table,
 )
-from .table import table_columns, table_rows, write_table
 
 __all__ = [
     "FAILED_OUTCOMES",
@@ -44,21 +48,26 @@ __all__ = [
     "METRIC_COLUMNS",
     "BatchProgress",
     "BatchResult",
+    "ChunkTable",
     "InlineExecutor",
     "JobError",
     "JobSpec",
     "Point",
     "PreparedRun",
+    "TableWriter",
     "apply_override",
+    "job_context",
     "job_schema_text",
     "latin_hypercube",
     "load_job",
     "parse_path",
     "prepare_runs",
     "run_job",
-    "run_prepared",
-    "simulate_chunk",
+    "simulate_many",
     "table_columns",
+    "table_paths",
     "table_rows",
+    "to_arrow",
+    "to_numpy",
     "write_table",
 ]

@@ -1,41 +1,54 @@
-"""Run prepared jobs: workers simulate, this process writes the archive.
+"""Run jobs: workers prepare, simulate and store chunks of runs; this process orchestrates.
 
-Workers (a local process pool, a dask.distributed cluster, or this process) receive chunks of
-resolved Plans and return summaries and trajectories; they never touch the archive. The calling
-process skips runs whose content ID is archived already, collects finished runs into a segment
-(:class:`~bowlrec.archive.SegmentBuilder`) that it seals and registers every
-:data:`SEGMENT_RUNS` runs or :data:`FLUSH_S` seconds (a kill loses at most the runs not yet
-sealed; rerunning the job simulates them again) and reports progress. Cancellation (an Event,
-set e.g. by SIGINT) stops submitting, keeps every run that finished, and marks the rest
-``cancelled``. A write that fails (a full disk) stops the batch the same way: the runs already
-sealed stay, the unsealed ones become failed rows naming the error, and ``BatchResult.error``
-says what happened.
+The job is cut into chunks of consecutive runs (thousands for summary-only jobs, tens for
+recorded ones). Each chunk goes to a worker (a local process pool, a dask.distributed cluster, or
+this process) that expands only its points, prepares them, skips the runs archived already,
+simulates the rest (:mod:`bowlrec.batch.chunks`) and seals them as one segment of the archive;
+this process registers each segment in the index (one transaction per chunk), collects the
+table rows in job order and reports progress. Nothing is expanded up front: a job of millions of
+runs starts at once and, with a streaming table sink, runs in flat memory.
+
+Where a worker cannot reach the archive's files (a Dask cluster without the shared filesystem;
+``worker_writes`` "auto" probes for it), it ships its records back and this process seals them.
+A kill loses at most the chunks in flight: sealed segments that were not yet registered are
+registered by the next writer (:meth:`~bowlrec.archive.Archive.recover`), and rerunning the job
+skips every archived run. Cancellation (an Event, set e.g. by SIGINT) stops submitting, keeps
+every run that finished and marks the rest ``cancelled``. A write that fails (a full disk) stops
+the batch the same way, and ``BatchResult.error`` says what happened.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import signal
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.core.trajectory import Summary
-
-from .job import JobSpec, PreparedRun, prepare_runs
+from .chunks import (
+    FAILED_OUTCOMES,
+    METRIC_COLUMNS,
+    ChunkResult,
+    ChunkTable,
+    ChunkTask,
+    WriteTarget,
+    new_probe,
+    remove_probe,
+    run_chunk,
+)
+from .job import JobSpec, job_context
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
-    from bowlrec.core.plan import Plan
-    from bowlrec.core.trajectory import Trajectory
+
+    from .chunks import JobContext
 
 __all__ = [
     "FAILED_OUTCOMES",
@@ -43,67 +56,16 @@ __all__ = [
     "BatchProgress",
     "BatchResult",
     "InlineExecutor",
-    "SimResult",
-    "SimTask",
     "run_job",
-    "run_prepared",
-    "simulate_chunk",
 ]
 
-#: runs per sealed segment, at most
-SEGMENT_RUNS = 1000
-#: seconds after which collected runs are sealed even when fewer than SEGMENT_RUNS
-FLUSH_S = 1.0
-
-#: outcomes that mean the model or the solver gave up: recorded as failures, not archived
-FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
-
-#: summary metrics of every table row: the Summary fields but the message (units in the names)
-METRIC_COLUMNS = tuple(f.name for f in dataclasses.fields(Summary) if f.name != "message")
+#: runs per chunk at most: summary-only and recorded jobs
+SUMMARY_CHUNK = 4096
+RECORDED_CHUNK = 32
 
 #: row statuses: simulated and added now / found in the archive / not run (see error) /
 #: not reached before cancellation
 STATUSES = ("ok", "archived", "failed", "cancelled")
-
-
-# -- worker side ------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class SimTask:
-    """One simulation for a worker: the run's content ID and its resolved Plan."""
-
-    run_id: str
-    plan: Plan
-
-
-@dataclass(frozen=True)
-class SimResult:
-    """A worker's answer: the trajectory (None on error), solver wall time (s), solver name."""
-
-    run_id: str
-    trajectory: Trajectory | None
-    wall_time_s: float
-    solver: str
-    error: str | None = None
-
-
-def simulate_chunk(tasks: Sequence[SimTask]) -> list[SimResult]:
-    """Simulate each task (exceptions become ``error`` results). Runs in a worker process."""
-    from bowlrec.core.solver import solve, use_closed_form
-
-    out = []
-    for task in tasks:
-        start = time.perf_counter()
-        try:
-            traj = solve(task.plan)
-        except Exception as err:  # a failing scene is a row, never a crashed batch
-            out.append(SimResult(task.run_id, None, 0.0, "", f"{type(err).__name__}: {err}"))
-            continue
-        wall = time.perf_counter() - start
-        solver = "closed_form" if use_closed_form(task.plan) else "integrator"
-        out.append(SimResult(task.run_id, traj, wall, solver))
-    return out
 
 
 def _worker_init() -> None:
@@ -139,16 +101,19 @@ class BatchProgress:
 
 @dataclass
 class BatchResult:
-    """What a batch did: one row per run (job order) and totals.
+    """What a batch did: its table (one row per run, job order) and totals.
 
-    rows: dicts with ``index``, the parameter columns, ``run_id``, ``status`` (ok | archived |
-    failed | cancelled), ``error`` and :data:`METRIC_COLUMNS`; param_columns: the parameter
-    column names in order; simulate_s: summed solver time in the workers (s); write_s: time
-    spent adding runs to the archive (s); elapsed_s: wall time of the whole batch (s).
+    tables: the table's chunks in job order (empty when they went to a ``sink``; see
+    :mod:`bowlrec.batch.table` for the columns); param_columns: the parameter column names in
+    order; counts: rows per status (ok | archived | failed | cancelled); simulated: runs
+    simulated now; simulate_s: summed kernel time in the workers (s); write_s: time spent
+    sealing and registering segments (s, workers and this process); elapsed_s: wall time (s).
     """
 
-    rows: list[dict[str, Any]]
     param_columns: list[str]
+    tables: list[ChunkTable] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STATUSES, 0))
+    simulated: int = 0
     cancelled: bool = False
     elapsed_s: float = 0.0
     simulate_s: float = 0.0
@@ -158,16 +123,18 @@ class BatchResult:
     error: str | None = None
 
     def count(self, status: str) -> int:
-        return sum(1 for r in self.rows if r["status"] == status)
+        return self.counts[status]
 
     @property
-    def counts(self) -> dict[str, int]:
-        return {s: self.count(s) for s in STATUSES}
+    def n_rows(self) -> int:
+        return sum(self.counts.values())
 
     @property
-    def simulated(self) -> int:
-        """Runs simulated by this batch (added now, plus simulated failures)."""
-        return sum(1 for r in self.rows if r.get("_simulated"))
+    def rows(self) -> list[dict[str, Any]]:
+        """The table as one dict per row (None for absent values); built on each access."""
+        from .table import table_rows
+
+        return table_rows(self)
 
 
 ProgressCallback = Callable[[BatchProgress], None]
@@ -211,7 +178,8 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[tuple[Exec
 
     n = workers or os.cpu_count() or 1
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(["bowlrec.batch.runner", "bowlrec.core.solver"])
+    # the fork server imports and warms the kernels once; every worker forks from it ready
+    ctx.set_forkserver_preload(["bowlrec.batch.warm"])
     pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init)
     try:
         yield pool, n
@@ -219,308 +187,286 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[tuple[Exec
         pool.shutdown(wait=True, cancel_futures=True)
 
 
-# -- the writer -------------------------------------------------------------------------------
+# -- the orchestrator -------------------------------------------------------------------------
 
 
-def _metrics(source: dict[str, Any]) -> dict[str, Any]:
-    return {k: source.get(k) for k in METRIC_COLUMNS}
+TableSink = Callable[[ChunkTable], None]
 
 
-def _empty_row(prep: PreparedRun) -> dict[str, Any]:
-    row: dict[str, Any] = {"index": prep.index, **prep.params, "run_id": prep.run_id}
-    row.update({"status": "cancelled", "error": None})
-    row.update({k: None for k in METRIC_COLUMNS})
-    return row
+def param_columns(job: JobSpec) -> list[str]:
+    """The table's parameter columns: the swept paths in order (``scene`` for a scenes
+    block)."""
+    from .job import PointsSweep, ScenesSweep
 
-
-def _archived_metrics(archive: Archive, run_ids: set[str]) -> dict[str, dict[str, Any]]:
-    """Summary metrics of the runs among ``run_ids`` that are archived already (from the
-    index)."""
-    if not run_ids:
-        return {}
-    return {rid: _metrics(r) for rid, r in archive.rows(run_ids).items()}
-
-
-class _Writer:
-    """Turns worker results into table rows and segments of archive runs."""
-
-    def __init__(
-        self,
-        archive: Archive,
-        prepared: Sequence[PreparedRun],
-        rows: list[dict[str, Any]],
-        formats: Sequence[str],
-        replay_dir: Path | None,
-        durable: bool,
-    ) -> None:
-        self.archive = archive
-        self.prepared = {p.run_id: p for p in prepared if p.run_id is not None}
-        self.rows_by_id: dict[str, list[dict[str, Any]]] = {}
-        for p, row in zip(prepared, rows, strict=True):
-            if p.run_id is not None:
-                self.rows_by_id.setdefault(p.run_id, []).append(row)
-        self.formats = formats
-        self.replay_dir = replay_dir
-        self.durable = durable
-        self.write_s = 0.0
-        self.simulate_s = 0.0
-        self.replays: list[Path] = []
-        self._ball_refs: dict[str, str] = {}
-        self.builder = archive.builder()
-        self._pending: list[str] = []
-        self._last_flush = time.perf_counter()
-        #: rows a failed flush settled as failed
-        self.failed_rows = 0
-
-    def _ball_ref(self, prep: PreparedRun) -> str:
-        if prep.ball_ref is not None:
-            return prep.ball_ref
-        from bowlrec.archive import ball_sha
-
-        assert prep.scene is not None
-        sha = ball_sha(prep.scene.ball)
-        if sha not in self._ball_refs:
-            entry = self.archive.balls.find(prep.scene.ball)
-            self._ball_refs[sha] = entry.ref if entry is not None else ""
-        return self._ball_refs[sha]
-
-    def handle(self, res: SimResult) -> int:
-        """Record one result; returns the number of rows it settled (a run to archive settles
-        when its segment is sealed: :meth:`flush`)."""
-        from bowlrec.sinks.common import RunData
-
-        rows = self.rows_by_id[res.run_id]
-        status, error, metrics = "failed", res.error, {}
-        if res.trajectory is not None:
-            self.simulate_s += res.wall_time_s
-            summary = res.trajectory.summary
-            metrics = _metrics(summary.to_dict())
-            if summary.outcome in FAILED_OUTCOMES:
-                error = f"{summary.outcome}: {summary.message}"
-            else:
-                prep = self.prepared[res.run_id]
-                assert prep.scene is not None and prep.plan is not None
-                run = RunData(prep.scene, prep.plan, res.trajectory, res.run_id)
-                start = time.perf_counter()
-                record = self.archive.record(
-                    run,
-                    wall_time_s=res.wall_time_s,
-                    ball_ref=self._ball_ref(prep),
-                    solver=res.solver,
-                )
-                if self.builder.append(record):
-                    self._pending.append(res.run_id)
-                self.write_s += time.perf_counter() - start
-                status = "ok"
-                self._replays(run)
-        for row in rows:
-            row.update(metrics)
-            row.update({"status": status, "error": error, "_simulated": True})
-        return 0 if status == "ok" else len(rows)
-
-    def due(self) -> bool:
-        """True when the collected runs should be sealed now."""
-        return len(self.builder) >= SEGMENT_RUNS or (
-            len(self.builder) > 0 and time.perf_counter() - self._last_flush >= FLUSH_S
-        )
-
-    def flush(self) -> int:
-        """Seal the collected runs as one segment and register it; the rows it settled. On a
-        write error the collected runs become failed rows and ArchiveWriteError propagates."""
-        from bowlrec.archive import ArchiveWriteError
-
-        self._last_flush = time.perf_counter()
-        if not len(self.builder):
-            return 0
-        start = time.perf_counter()
-        pending, builder = self._pending, self.builder
-        self._pending, self.builder = [], self.archive.builder()
-        try:
-            info = self.archive.seal(builder, durable=self.durable)
-        except ArchiveWriteError as err:
-            self.failed_rows = self._fail(pending, str(err))
-            self.write_s += time.perf_counter() - start
-            raise
-        try:
-            self.archive.register([info])
-        except ArchiveWriteError:
-            # the runs are sealed on disk: the next writer registers them, so they stay "ok"
-            self.failed_rows = 0
-            raise
-        finally:
-            self.write_s += time.perf_counter() - start
-        return sum(len(self.rows_by_id[rid]) for rid in pending)
-
-    def _fail(self, run_ids: Sequence[str], error: str) -> int:
-        n = 0
-        for rid in run_ids:
-            for row in self.rows_by_id[rid]:
-                row.update({"status": "failed", "error": f"not archived: {error}"})
-                n += 1
-        return n
-
-    def abandon(self, error: str) -> int:
-        """Drop the collected runs (after a failed write), marking their rows failed; the rows
-        it settled."""
-        n = self._fail(self._pending, error)
-        self._pending, self.builder = [], self.archive.builder()
-        return n
-
-    def fail_chunk(self, chunk: Sequence[SimTask], err: BaseException) -> int:
-        n = 0
-        for task in chunk:
-            for row in self.rows_by_id[task.run_id]:
-                row.update({"status": "failed", "error": f"worker: {type(err).__name__}: {err}"})
-                n += 1
-        return n
-
-    def _replays(self, run: Any) -> None:
-        if not self.formats or self.replay_dir is None:
-            return
-        self.replay_dir.mkdir(parents=True, exist_ok=True)
-        if "mcap" in self.formats:
-            from bowlrec.sinks.mcap_file import write_mcap
-
-            self.replays.append(write_mcap(run, self.replay_dir / f"{run.run_id}.mcap"))
-        if "rrd" in self.formats:
-            from bowlrec.sinks.rerun_recording import write_rrd
-
-            self.replays.append(write_rrd(run, self.replay_dir / f"{run.run_id}.rrd"))
-
-
-def _param_columns(prepared: Sequence[PreparedRun]) -> list[str]:
     cols: dict[str, None] = {}
-    for p in prepared:
-        cols.update(dict.fromkeys(p.params))
+    for block in job.blocks():
+        if isinstance(block, ScenesSweep):
+            cols["scene"] = None
+        elif isinstance(block, PointsSweep):
+            for point in block.points_:
+                cols.update(dict.fromkeys(point))
+        else:
+            cols.update(dict.fromkeys(block.axes))
     return list(cols)
 
 
-def run_prepared(
-    prepared: Sequence[PreparedRun],
-    archive: Archive,
+def _default_chunk(job: JobSpec, total: int, parallel: int) -> int:
+    cap = SUMMARY_CHUNK if job.record == "summary" else RECORDED_CHUNK
+    return max(1, min(cap, math.ceil(total / (4 * parallel))))
+
+
+def _unrun(ctx: JobContext, start: int, stop: int, status: str, error: str | None) -> ChunkTable:
+    """Rows for runs ``start`` to ``stop`` that were not run (cancelled or failed)."""
+    import numpy as np
+
+    points = ctx.job.points(start, stop)
+    params: dict[str, list[Any]] = {}
+    for k, p in enumerate(points):
+        overrides = {"scene": _scene_label(ctx, p)} if p.scene is not None else p.overrides
+        for name, value in overrides.items():
+            params.setdefault(name, [None] * len(points))[k] = value
+    index = np.fromiter((p.index for p in points), dtype=np.int64, count=len(points))
+    table = ChunkTable.empty(index, dict(params))
+    table.status = [status] * len(points)
+    table.error = [error] * len(points)
+    return table
+
+
+def _scene_label(ctx: JobContext, point: Any) -> str:
+    block = ctx.job.blocks()[point.block]
+    entry = block.scenes[point.scene]
+    return entry if isinstance(entry, str) else str(entry.get("name", point.scene))
+
+
+class _Orchestrator:
+    """Submits chunks, registers what workers sealed, and emits table chunks in job order."""
+
+    def __init__(
+        self,
+        ctx: JobContext,
+        archive: Archive | None,
+        target: WriteTarget | None,
+        result: BatchResult,
+        sink: TableSink | None,
+        progress: ProgressCallback | None,
+        start: float,
+        before_register: TableSink | None = None,
+    ) -> None:
+        self.ctx = ctx
+        self.before_register = before_register
+        self.archive = archive
+        self.target = target
+        self.result = result
+        self.sink = sink
+        self.progress = progress
+        self.start = start
+        self.total = ctx.job.count()
+        self.ready: dict[int, ChunkTable] = {}
+        self.next_row = 0
+        self.done = 0
+
+    def emit(self, start: int, table: ChunkTable) -> None:
+        """Take a chunk's rows; pass on every chunk now complete in job order."""
+        for s in table.status:
+            self.result.counts[s] += 1
+        self.done += len(table)
+        self.ready[start] = table
+        while self.next_row in self.ready:
+            t = self.ready.pop(self.next_row)
+            self.next_row += len(t)
+            if self.sink is not None:
+                self.sink(t)
+            else:
+                self.result.tables.append(t)
+
+    def report(self) -> None:
+        if self.progress is None:
+            return
+        c = self.result.counts
+        self.progress(
+            BatchProgress(
+                total=self.total,
+                done=c["ok"] + c["archived"] + c["failed"],
+                simulated=self.result.simulated,
+                archived=c["archived"],
+                failed=c["failed"],
+                elapsed_s=time.perf_counter() - self.start,
+            )
+        )
+
+    def take(self, res: ChunkResult) -> None:
+        """A finished chunk: store what the worker could not, register what it sealed."""
+        from bowlrec.archive import ArchiveWriteError
+
+        r = self.result
+        r.simulated += res.simulated
+        r.simulate_s += res.simulate_s
+        r.write_s += res.write_s
+        r.replays.extend(res.replays)
+        if res.error is not None and r.error is None:
+            r.error = res.error
+        if self.before_register is not None:
+            self.before_register(res.table)
+        if self.archive is not None:
+            t0 = time.perf_counter()
+            try:
+                if res.records or res.summary_runs is not None:
+                    res.segment = self._seal_shipped(res)
+                if res.segment is not None:
+                    path = self.archive.segments_dir / res.segment.path.name
+                    info = res.segment
+                    if path != info.path:
+                        from dataclasses import replace
+
+                        info = replace(info, path=path)
+                    self.archive.register([info])
+            except ArchiveWriteError as err:
+                if r.error is None:
+                    r.error = str(err)
+                if res.segment is None:  # nothing sealed: the new runs are not archived
+                    _fail_new(res.table, str(err))
+            r.write_s += time.perf_counter() - t0
+        self.emit(res.start, res.table)
+
+    def _seal_shipped(self, res: ChunkResult) -> Any:
+        """Seal runs a worker shipped back (runs archived meanwhile are left out)."""
+        assert self.archive is not None
+        durable = self.target.durable if self.target is not None else True
+        if res.summary_runs is not None:
+            runs = res.summary_runs
+            present = self.archive.rows(runs.run_ids())
+            keep = [i for i, rid in enumerate(runs.run_ids()) if rid not in present]
+            return self.archive.seal(runs.select(keep), durable=durable) if keep else None
+        present = self.archive.rows(r.run_id for r in res.records)
+        builder = self.archive.builder()
+        for rec in res.records:
+            if rec.run_id not in present:
+                builder.append(rec)
+        return self.archive.seal(builder, durable=durable) if len(builder) else None
+
+
+def _fail_new(table: ChunkTable, error: str) -> None:
+    for i, status in enumerate(table.status):
+        if status == "ok":
+            table.status[i], table.error[i] = "failed", f"not archived: {error}"
+
+
+def run_job(
+    job: JobSpec,
+    archive: Archive | None,
     *,
+    base_dir: str | Path = ".",
     workers: int | None = None,
     scheduler: str | None = None,
     executor: Executor | None = None,
     chunk_size: int | None = None,
     progress: ProgressCallback | None = None,
     cancel: threading.Event | None = None,
-    formats: Sequence[str] = (),
     replay_dir: str | Path | None = None,
     durable: bool = True,
     recover: bool = True,
+    worker_writes: str = "auto",
+    sink: TableSink | None = None,
+    before_register: TableSink | None = None,
 ) -> BatchResult:
-    """Simulate the prepared runs not yet archived and add them to ``archive``.
+    """Run a job: simulate every run not yet archived, add it to ``archive`` (None: store
+    nothing, the table only) and return the table.
 
-    ``workers``: local processes (None: all cores; 0: simulate in this process);
-    ``scheduler``: a dask.distributed address (``tcp://host:port``) instead of local
-    processes; ``executor``: any concurrent.futures Executor to use instead of both (kept
-    open). ``chunk_size``: runs per task (default: about 8 tasks per worker, at most 64 runs).
-    ``progress`` is called from this thread after every settled chunk; setting ``cancel``
-    stops the batch after the chunks in flight (their finished runs are kept). ``recover``
-    first runs :meth:`~bowlrec.archive.Archive.recover` (finishes what a killed writer left);
-    ``durable`` fsyncs every sealed segment.
+    ``workers``: local processes (None: all cores; 0: this process); ``scheduler``: a
+    dask.distributed address (``tcp://host:port``) instead; ``executor``: any
+    concurrent.futures Executor instead of both (kept open). ``chunk_size``: runs per task
+    (default: up to 4,096 summary-only or 32 recorded runs, at least 4 tasks per worker).
+    ``progress`` is called from this thread after every chunk; setting ``cancel`` stops the
+    batch after the chunks in flight (their runs are kept). ``worker_writes``: "yes" workers
+    seal segments, "no" they ship records back, "auto" (default) workers write when they see
+    the archive's files (always for local processes). ``sink``: receives the table chunk by
+    chunk in job order instead of keeping it in the result; ``before_register`` sees each
+    finished chunk's rows before its runs are registered in the index (to log their run IDs
+    durably first, as the service does). ``recover`` first finishes what a
+    killed writer left; ``durable`` fsyncs every sealed segment. Raises JobError for an invalid
+    job before anything runs.
     """
     from bowlrec.archive import ArchiveWriteError
 
     start = time.perf_counter()
-    if recover:  # finish what a killed writer left (temporaries, unregistered segments)
-        archive.recover()
-    rows = [_empty_row(p) for p in prepared]
-    result = BatchResult(rows, _param_columns(prepared))
-    todo: dict[str, SimTask] = {}
-    for p, row in zip(prepared, rows, strict=True):
-        if p.error is not None:
-            row.update({"status": "failed", "error": p.error})
-        elif p.run_id is not None and p.plan is not None:
-            todo.setdefault(p.run_id, SimTask(p.run_id, p.plan))
-    archived = _archived_metrics(archive, set(todo))
-    for p, row in zip(prepared, rows, strict=True):
-        if p.run_id in archived:
-            row.update({"status": "archived", **archived[p.run_id]})
-    tasks = [t for rid, t in todo.items() if rid not in archived]
-    writer = _Writer(
-        archive,
-        prepared,
-        rows,
-        formats,
-        None if replay_dir is None else Path(replay_dir),
-        durable,
+    ctx = job_context(
+        job,
+        base_dir=base_dir,
+        balls=None if archive is None else archive.balls,
+        ball_refs=None if archive is None else archive._library_refs(),
+        replay_dir=replay_dir,
     )
-    done = len(rows) - len([r for r in rows if r["status"] == "cancelled"])
-    counts = {"simulated": 0}
-
-    def report() -> None:
-        if progress is not None:
-            progress(
-                BatchProgress(
-                    total=len(rows),
-                    done=done,
-                    simulated=counts["simulated"],
-                    archived=result.count("archived"),
-                    failed=result.count("failed"),
-                    elapsed_s=time.perf_counter() - start,
-                )
-            )
-
-    report()
+    if archive is not None and recover:
+        try:
+            archive.recover()
+        except ArchiveWriteError as err:
+            raise RuntimeError(str(err)) from None
+    result = BatchResult(param_columns(job))
     cancel = cancel or threading.Event()
-    if tasks:
-        with _maybe_executor(executor, workers, scheduler) as (pool, parallel):
-            size = chunk_size or max(1, min(64, math.ceil(len(tasks) / (8 * parallel))))
-            queue = deque(tasks[i : i + size] for i in range(0, len(tasks), size))
-            inflight: dict[Future[list[SimResult]], list[SimTask]] = {}
-            while (queue or inflight) and not cancel.is_set():
-                while queue and len(inflight) < 2 * parallel:
-                    chunk = queue.popleft()
-                    inflight[pool.submit(simulate_chunk, chunk)] = chunk
-                finished, _ = wait(list(inflight), timeout=0.2, return_when=FIRST_COMPLETED)
-                for fut in finished:
-                    chunk = inflight.pop(fut)
-                    try:
-                        results = fut.result()
-                    except Exception as err:  # a dead worker fails its chunk, not the batch
-                        done += writer.fail_chunk(chunk, err)
-                        continue
-                    for res in results:
-                        done += writer.handle(res)
-                        counts["simulated"] += 1
-                if writer.due():
-                    try:
-                        done += writer.flush()
-                    except ArchiveWriteError as err:
-                        done += writer.failed_rows
-                        result.error = str(err)
-                        cancel.set()
-                if finished:
-                    report()
-            if cancel.is_set():
-                result.cancelled = True
-                # chunks not started are dropped; running ones finish and are kept
-                running = [f for f in inflight if not f.cancel()]
-                for fut in running:
-                    try:
-                        results = fut.result()
-                    except Exception as err:
-                        done += writer.fail_chunk(inflight[fut], err)
-                        continue
-                    for res in results:
-                        done += writer.handle(res)
-                        counts["simulated"] += 1
-            if result.error is None:
-                try:
-                    done += writer.flush()
-                except ArchiveWriteError as err:
-                    done += writer.failed_rows
-                    result.error = str(err)
-            if result.error is not None:
-                done += writer.abandon(result.error)
-            report()
+    with _maybe_executor(executor, workers, scheduler) as (pool, parallel):
+        local = executor is None and scheduler is None
+        mode = "yes" if local and worker_writes == "auto" else worker_writes
+        probe = token = None
+        if archive is not None and mode == "auto":
+            probe, token = new_probe(archive.root)
+        target = (
+            None if archive is None else WriteTarget(str(archive.root), mode, probe, token, durable)
+        )
+        orch = _Orchestrator(ctx, archive, target, result, sink, progress, start, before_register)
+        try:
+            _drive(orch, pool, parallel, chunk_size, cancel)
+        finally:
+            remove_probe(probe)
     result.elapsed_s = time.perf_counter() - start
-    result.simulate_s = writer.simulate_s
-    result.write_s = writer.write_s
-    result.replays = writer.replays
     return result
+
+
+def _drive(
+    orch: _Orchestrator,
+    pool: Executor,
+    parallel: int,
+    chunk_size: int | None,
+    cancel: threading.Event,
+) -> None:
+    total = orch.total
+    size = chunk_size or _default_chunk(orch.ctx.job, total, parallel)
+    ranges = deque((s, min(s + size, total)) for s in range(0, total, size))
+    inflight: dict[Future[ChunkResult], tuple[int, int]] = {}
+    result = orch.result
+    orch.report()
+
+    def settle(fut: Future[ChunkResult], span: tuple[int, int]) -> None:
+        try:
+            res = fut.result()
+        except Exception as err:  # a dead worker fails its chunk, not the batch
+            orch.emit(
+                span[0], _unrun(orch.ctx, *span, "failed", f"worker: {type(err).__name__}: {err}")
+            )
+            return
+        orch.take(res)
+        if orch.result.error is not None:
+            cancel.set()
+
+    while (ranges or inflight) and not cancel.is_set():
+        while ranges and len(inflight) < 2 * parallel:
+            span = ranges.popleft()
+            task = ChunkTask(orch.ctx, span[0], span[1], orch.target)
+            inflight[pool.submit(run_chunk, task)] = span
+        finished, _ = wait(list(inflight), timeout=0.2, return_when=FIRST_COMPLETED)
+        for fut in finished:
+            settle(fut, inflight.pop(fut))
+        if finished:
+            orch.report()
+    if cancel.is_set():
+        result.cancelled = True
+        for fut, span in list(inflight.items()):
+            if fut.cancel():
+                ranges.appendleft(span)
+            else:
+                settle(fut, span)
+        for span in sorted(ranges):
+            orch.emit(span[0], _unrun(orch.ctx, *span, "cancelled", None))
+    orch.report()
 
 
 @contextmanager
@@ -532,18 +478,3 @@ def _maybe_executor(
         return
     with _executor(workers, scheduler) as pair:
         yield pair
-
-
-def run_job(
-    job: JobSpec,
-    archive: Archive,
-    *,
-    base_dir: str | Path = ".",
-    **options: Any,
-) -> BatchResult:
-    """Prepare (:func:`~bowlrec.batch.job.prepare_runs`) and run a job; ``options`` as in
-    :func:`run_prepared` (``formats`` defaults to the job's). Raises JobError for an invalid
-    job before anything is simulated."""
-    prepared = prepare_runs(job, base_dir=base_dir, balls=archive.balls)
-    options.setdefault("formats", job.formats)
-    return run_prepared(prepared, archive, **options)

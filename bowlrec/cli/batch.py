@@ -59,10 +59,22 @@ def batch(
         typer.Option(
             "--out",
             "-o",
-            help="Summary table prefix: writes PREFIX.csv and PREFIX.parquet (default: "
-            "<job file stem>-summary in the current directory).",
+            help="Summary table: a file ending .csv, .parquet, .json or .jsonl, or a prefix "
+            "for PREFIX.csv and PREFIX.parquet (default: <job file stem>-summary).",
         ),
     ] = None,
+    no_archive: Annotated[
+        bool,
+        typer.Option("--no-archive", help="Store nothing: write only the summary table."),
+    ] = False,
+    worker_writes: Annotated[
+        str,
+        typer.Option(
+            "--worker-writes",
+            help="Dask workers seal segments themselves (yes), ship them back to this process "
+            "(no), or write when they see the archive's files (auto, by a probe file).",
+        ),
+    ] = "auto",
     replay_dir: Annotated[
         Path | None,
         typer.Option("--replay-dir", help="Where the job's replay formats go (default: PREFIX/)."),
@@ -77,55 +89,72 @@ def batch(
     Every run of the sweep not yet archived is simulated and added; one table row per run.
     Resumable: rerunning skips archived runs.
     """
-    from bowlrec.batch import JobError, load_job, prepare_runs, run_prepared, write_table
+    from bowlrec.batch import JobError, TableWriter, load_job, run_job, table_paths
+    from bowlrec.batch.runner import param_columns
+    from bowlrec.batch.table import param_types
 
     if not job.exists():
         fail(f"{job}: no such file")
+    if worker_writes not in ("auto", "yes", "no"):
+        fail(f"--worker-writes: {worker_writes!r} must be auto, yes or no")
     try:
         spec = load_job(job)
     except JobError as err:
         fail(str(err))
-    store = open_archive(archive)
-    try:
-        prepared = prepare_runs(spec, base_dir=job.parent, balls=store.balls)
-    except JobError as err:
-        fail(f"{job}: {err}")
+    store = None if no_archive else open_archive(archive)
     prefix = out if out is not None else Path(f"{job.stem}-summary")
+    if no_archive and spec.formats:
+        fail(
+            f"{job}: formats {spec.formats} write replay files of archived runs; drop --no-archive"
+        )
     if scheduler is None:
         from bowlrec.archive.location import config_value
 
         scheduler = config_value("scheduler")
+    columns = param_columns(spec)
+    try:
+        writer = TableWriter(table_paths(prefix), columns, param_types(spec, columns))
+    except (OSError, RuntimeError) as err:
+        fail(str(err))
     cancel = threading.Event()
     previous = _sigint_sets(cancel)
     show = interactive(quiet)
     try:
-        with _progress(show, len(prepared)) as update:
-            result = run_prepared(
-                prepared,
+        with _progress(show, spec.count()) as update:
+            result = run_job(
+                spec,
                 store,
+                base_dir=job.parent,
                 workers=workers,
                 scheduler=scheduler,
                 chunk_size=chunk_size,
                 progress=update,
                 cancel=cancel,
-                formats=spec.formats,
                 replay_dir=replay_dir if replay_dir is not None else prefix,
+                worker_writes=worker_writes,
+                sink=writer.write,
             )
-    except RuntimeError as err:
+    except JobError as err:
+        writer.abort()
+        fail(f"{job}: {err}")
+    except (RuntimeError, OSError) as err:
+        writer.abort()
         fail(str(err))
     finally:
         signal.signal(signal.SIGINT, previous)
     try:
-        paths = write_table(result, prefix)
+        paths = writer.close()
     except OSError as err:
+        kept = "" if store is None else f"; the {result.counts['ok']} run(s) archived are kept"
         fail(
-            f"could not write the summary table {prefix}.csv ({err.strerror or err}); the "
-            f"{result.counts['ok']} run(s) archived are kept: rerun the same command"
+            f"could not write the summary table {prefix} ({err.strerror or err}){kept}: rerun "
+            "the same command"
         )
     c = result.counts
     if not quiet:
+        added = "simulated" if store is None else "new"
         typer.echo(
-            f"{len(result.rows)} runs: {c['ok']} new, {c['archived']} already archived, "
+            f"{result.n_rows} runs: {c['ok']} {added}, {c['archived']} already archived, "
             f"{c['failed']} failed"
             + (f", {c['cancelled']} not run" if c["cancelled"] else "")
             + f" ({result.simulated} simulated in {result.elapsed_s:.1f} s)",
@@ -133,7 +162,7 @@ def batch(
         )
         for p in paths:
             typer.echo(f"table: {p}", err=True)
-        if len(paths) == 1:
+        if out is None and not any(p.suffix == ".parquet" for p in paths):
             typer.echo("note: install pyarrow for the Parquet table", err=True)
     if result.error is not None:
         typer.echo(
@@ -143,9 +172,9 @@ def batch(
         )
         raise typer.Exit(1)
     if result.cancelled:
+        where = "" if store is None else f" were added to {store.root}"
         typer.echo(
-            f"interrupted: {c['ok']} finished runs were added to {store.root}; rerun the same "
-            "command to do the rest",
+            f"interrupted: {c['ok']} finished runs{where}; rerun the same command to do the rest",
             err=True,
         )
         raise typer.Exit(EXIT_INTERRUPTED)

@@ -15,14 +15,23 @@ import numpy as np
 from numba import njit, prange
 
 from .closed_form import closed_form_kernel
-from .integrator import EVENT_SLIDE_TO_ROLL, STATUS_PINS, simulate_kernel
+from .dynamics import N_STATE
+from .integrator import N_EVCOL, simulate_kernel
 from .plan import Plan
 from .solver import initial_state, kernel_params, needs_orientation, use_closed_form
-from .trajectory import OUTCOMES
+from .summary import first_slide_x, released_rolling, summary_columns
 
-# columns of the batch result
-B_STATUS, B_T, B_X, B_Y, B_VX, B_VY, B_WX, B_WY, B_WZ, B_SLIDE, B_STEPS, B_RHS, B_EVENTS = range(13)
-N_BCOL = 13
+# columns of the batch result: status, end time (s), final state (11 values, see
+# bowlrec.core.dynamics), x of the first slide -> roll event (NaN: none), 1.0 if released rolling,
+# accepted steps, right-hand sides, events
+B_STATUS, B_T = 0, 1
+B_STATE = 2
+B_SLIDE, B_ROLLING, B_STEPS, B_RHS, B_EVENTS = range(B_STATE + N_STATE, B_STATE + N_STATE + 5)
+N_BCOL = B_EVENTS + 1
+
+#: events kept per delivery in the batch result (the event table's first rows); runs with more
+#: events (rare: a fine oil grid) report them all through :func:`bowlrec.core.solver.solve`
+EVENT_CAP = 32
 
 
 @dataclass(frozen=True)
@@ -38,7 +47,7 @@ class PackedPlans:
     mu: np.ndarray
     mu_off: np.ndarray
     lane: np.ndarray  # (n, 3): length, width, max_time
-    opts: np.ndarray  # (n, 4): rtol, slide_mode, slip_threshold, max_steps
+    opts: np.ndarray  # (n, 5): rtol, slide_mode, slip_threshold, max_steps, g
     flags: np.ndarray  # (n, 2) bool: closed form, orient
 
     @property
@@ -56,7 +65,7 @@ def pack_plans(plans: Sequence[Plan]) -> PackedPlans:
     par = np.empty((n, kernel_params(plans[0]).shape[0]))
     y0 = np.empty((n, 11))
     lane = np.empty((n, 3))
-    opts = np.empty((n, 4))
+    opts = np.empty((n, 5))
     flags = np.zeros((n, 2), dtype=np.bool_)
     for i, p in enumerate(plans):
         par[i] = kernel_params(p)
@@ -71,7 +80,7 @@ def pack_plans(plans: Sequence[Plan]) -> PackedPlans:
         y_off[i + 1] = y_off[i] + ye.size
         mu_off[i + 1] = mu_off[i] + mu.size
         lane[i] = (p.lane_length_m, p.lane_width_m, p.max_time_s)
-        opts[i] = (p.rtol, p.slide_to_roll, p.slip_threshold_mps, p.max_steps)
+        opts[i] = (p.rtol, p.slide_to_roll, p.slip_threshold_mps, p.max_steps, p.g_mps2)
         flags[i] = (use_closed_form(p), needs_orientation(p))
     return PackedPlans(
         par=par,
@@ -88,8 +97,39 @@ def pack_plans(plans: Sequence[Plan]) -> PackedPlans:
     )
 
 
+def take(packed: PackedPlans, rows: np.ndarray) -> PackedPlans:
+    """The packed deliveries ``rows`` (in that order)."""
+
+    def ragged(values: np.ndarray, off: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        lengths = off[rows + 1] - off[rows]
+        new_off = np.zeros(rows.size + 1, dtype=np.int64)
+        np.cumsum(lengths, out=new_off[1:])
+        if rows.size and np.all(lengths == lengths[0]) and np.all(np.diff(off) == lengths[0]):
+            width = int(lengths[0])  # equal widths: one gather
+            return values.reshape(-1, width)[rows].ravel() if width else values[:0], new_off
+        parts = [values[off[i] : off[i + 1]] for i in rows]
+        return (np.concatenate(parts) if parts else values[:0]), new_off
+
+    x_edges, x_off = ragged(packed.x_edges, packed.x_off)
+    y_edges, y_off = ragged(packed.y_edges, packed.y_off)
+    mu, mu_off = ragged(packed.mu, packed.mu_off)
+    return PackedPlans(
+        par=packed.par[rows],
+        y0=packed.y0[rows],
+        x_edges=x_edges,
+        x_off=x_off,
+        y_edges=y_edges,
+        y_off=y_off,
+        mu=mu,
+        mu_off=mu_off,
+        lane=packed.lane[rows],
+        opts=packed.opts[rows],
+        flags=packed.flags[rows],
+    )
+
+
 @njit(cache=True, error_model="numpy")
-def _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out):  # type: ignore[no-untyped-def]
+def _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events):  # type: ignore[no-untyped-def]
     x_edges = xe[xo[i] : xo[i + 1]]
     y_edges = ye[yo[i] : yo[i + 1]]
     grid = mu[mo[i] : mo[i + 1]].reshape((x_edges.shape[0] + 1, y_edges.shape[0] + 1))
@@ -120,40 +160,53 @@ def _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out):  # type: i
     y = r[6]
     out[i, B_STATUS] = r[4]
     out[i, B_T] = r[5]
-    out[i, B_X] = y[0]
-    out[i, B_Y] = y[1]
-    out[i, B_VX] = y[2]
-    out[i, B_VY] = y[3]
-    out[i, B_WX] = y[8]
-    out[i, B_WY] = y[9]
-    out[i, B_WZ] = y[10]
-    out[i, B_SLIDE] = math.nan
-    for k in range(nev):
-        if ev[k, 1] == EVENT_SLIDE_TO_ROLL:
-            out[i, B_SLIDE] = ev[k, 2]
-            break
+    for k in range(N_STATE):
+        out[i, B_STATE + k] = y[k]
+    slide = first_slide_x(ev, nev)
+    out[i, B_SLIDE] = slide
+    rolling = False
+    if math.isnan(slide):
+        rolling = released_rolling(y0[i], par[i], x_edges, y_edges, grid, opts[i, 0], opts[i, 4])
+    out[i, B_ROLLING] = 1.0 if rolling else 0.0
     out[i, B_STEPS] = r[7]
     out[i, B_RHS] = r[8]
     out[i, B_EVENTS] = nev
+    for k in range(min(nev, events.shape[1])):
+        for c in range(N_EVCOL):
+            events[i, k, c] = ev[k, c]
 
 
 @njit(cache=True, parallel=True)
-def _run_parallel(par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out):  # type: ignore[no-untyped-def]
+def _run_parallel(par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events):  # type: ignore[no-untyped-def]
     for i in prange(par.shape[0]):
-        _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out)
+        _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events)
 
 
 @njit(cache=True)
-def _run_serial(par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out):  # type: ignore[no-untyped-def]
+def _run_serial(par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events):  # type: ignore[no-untyped-def]
     for i in range(par.shape[0]):
-        _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out)
+        _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events)
 
 
-def run_batch(packed: PackedPlans, parallel: bool = True) -> np.ndarray:
-    """Simulate every packed delivery; returns an (n, N_BCOL) array (see the B_* columns).
+@dataclass(frozen=True)
+class BatchOutput:
+    """What :func:`run_batch` returns: ``out`` (n, N_BCOL) with the B_* columns and ``events``
+    (n, EVENT_CAP, N_EVCOL): each delivery's first event rows (see ``simulate_kernel``)."""
+
+    out: np.ndarray
+    events: np.ndarray
+
+    @property
+    def n_events(self) -> np.ndarray:
+        return self.out[:, B_EVENTS].astype(np.int64)
+
+
+def run_batch(packed: PackedPlans, parallel: bool = True) -> BatchOutput:
+    """Simulate every packed delivery (summary only).
 
     ``parallel`` uses all numba threads (``numba.set_num_threads`` limits them)."""
     out = np.empty((packed.n, N_BCOL))
+    events = np.zeros((packed.n, EVENT_CAP, N_EVCOL))
     fn = _run_parallel if parallel else _run_serial
     fn(
         packed.par,
@@ -168,26 +221,24 @@ def run_batch(packed: PackedPlans, parallel: bool = True) -> np.ndarray:
         packed.opts,
         packed.flags,
         out,
+        events,
     )
-    return out
+    return BatchOutput(out, events)
 
 
-def batch_metrics(packed: PackedPlans, out: np.ndarray) -> dict[str, np.ndarray]:
-    """Table III metrics for a batch result: outcome, slide_m (nan if never rolls), hook_m and
-    pocket_deg (nan unless the ball reached the pins), time_s, x_end_m, y_end_m."""
-    x0 = packed.y0[:, 0]
-    y0 = packed.y0[:, 1]
-    slope = packed.y0[:, 3] / packed.y0[:, 2]
-    pins = out[:, B_STATUS] == STATUS_PINS
-    hook = np.where(pins, out[:, B_Y] - (y0 + (out[:, B_X] - x0) * slope), np.nan)
-    pocket = np.where(pins, np.degrees(np.arctan2(out[:, B_VY], out[:, B_VX])), np.nan)
-    outcome = np.array([OUTCOMES.get(int(s), "error") for s in out[:, B_STATUS]])
-    return {
-        "outcome": outcome,
-        "slide_m": out[:, B_SLIDE],
-        "hook_m": hook,
-        "pocket_deg": pocket,
-        "time_s": out[:, B_T],
-        "x_end_m": out[:, B_X],
-        "y_end_m": out[:, B_Y],
-    }
+def batch_metrics(packed: PackedPlans, result: BatchOutput) -> dict[str, np.ndarray]:
+    """Table III metrics of a batch result, computed as :func:`~bowlrec.core.solver.solve`
+    computes them (:func:`bowlrec.core.summary.summary_columns`): ``outcome`` and the float
+    and integer metric columns (NaN: no value)."""
+    out = result.out
+    return summary_columns(
+        out[:, B_STATUS],
+        out[:, B_T],
+        out[:, B_STATE : B_STATE + N_STATE],
+        packed.y0,
+        out[:, B_SLIDE],
+        out[:, B_ROLLING] == 1.0,
+        out[:, B_STEPS],
+        out[:, B_RHS],
+        out[:, B_EVENTS],
+    )

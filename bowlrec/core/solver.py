@@ -9,20 +9,13 @@ import numpy as np
 
 from .closed_form import closed_form_kernel
 from .derive import derive_samples
-from .dynamics import N_STATE, PHASE_ROLL, pack_params, roll_accel, slip
-from .integrator import (
-    COL_MU,
-    COL_PHASE,
-    COL_STATE,
-    COL_T,
-    EVENT_SLIDE_TO_ROLL,
-    STATUS_AIRBORNE,
-    STATUS_PINS,
-    simulate_kernel,
-)
+from .dynamics import N_STATE, PHASE_ROLL, pack_params
+from .integrator import COL_MU, COL_PHASE, COL_STATE, COL_T, simulate_kernel
 from .plan import RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT, Plan
+from .summary import first_slide_x, summary_columns, summary_message
+from .summary import released_rolling as rolling_at_release
 from .terms import INERTIA_TERMS, TORQUE_TERMS
-from .trajectory import EVENT_KINDS, OUTCOMES, Event, Summary, Trajectory
+from .trajectory import EVENT_KINDS, Event, Summary, Trajectory
 
 
 def initial_state(plan: Plan) -> np.ndarray:
@@ -211,16 +204,17 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
 def released_rolling(plan: Plan) -> bool:
     """True when the kernel starts the run rolling: zero slip at release and the friction
     suffices (the same test as the integrator's initial phase, on the same compiled helpers)."""
-    y = initial_state(plan)
-    par = kernel_params(plan)
-    sx, sy = slip(y, par)
-    if math.sqrt(sx * sx + sy * sy) > 0.0:
-        return False
-    ix = int(np.searchsorted(plan.friction_x_edges_m, y[0], side="right"))
-    iy = int(np.searchsorted(plan.friction_y_edges_m, y[1], side="right"))
-    mu = float(plan.friction_mu[ix, iy])
-    r = roll_accel(y, par)
-    return bool(mu * r[7] - math.hypot(r[5], r[6]) >= -plan.rtol * plan.g_mps2)
+    return bool(
+        rolling_at_release(
+            initial_state(plan),
+            kernel_params(plan),
+            np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
+            np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
+            np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
+            float(plan.rtol),
+            float(plan.g_mps2),
+        )
+    )
 
 
 def summarize(
@@ -232,52 +226,47 @@ def summarize(
     nsteps: int,
     nfev: int,
 ) -> Summary:
-    """Table III metrics from the final state and the event table."""
-    outcome = OUTCOMES.get(status, "error")
-    slide = None
-    for row in ev:
-        if int(row[1]) == EVENT_SLIDE_TO_ROLL:
-            slide = float(row[2])
-            break
-    x0, y0 = (float(v) for v in plan.position0_m)
-    if slide is None and released_rolling(plan):
-        slide = x0  # rolling from the release point: no slide, and no slide -> roll event
-    vx0, vy0 = (float(v) for v in plan.velocity0_mps)
-    hook = pocket = None
-    if status == STATUS_PINS:
-        hook = float(y_end[1] - (y0 + (y_end[0] - x0) * vy0 / vx0))
-        pocket = math.degrees(math.atan2(y_end[3], y_end[2]))
-    speed = math.hypot(y_end[2], y_end[3])
-    rev = math.sqrt(y_end[8] ** 2 + y_end[9] ** 2 + y_end[10] ** 2) * 60.0 / (2.0 * math.pi)
-    messages = {
-        "pins": "reached the pins",
-        "gutter": f"the center crossed a lane edge at x = {y_end[0]:.3f} m",
-        "stopped": f"the ball stopped moving toward the pins at x = {y_end[0]:.3f} m",
-        "airborne": (
-            f"the normal force reached zero at t = {t_end:.4f} s, x = {y_end[0]:.3f} m: the ball "
-            "would leave the lane (omega^2 |offset| exceeds g); the model assumes contact"
-        ),
-        "max_time": f"no outcome within max_time_s = {plan.max_time_s} s",
-        "max_steps": f"no outcome within {plan.max_steps} integrator steps",
-        "stalled": "the integrator stalled (step size underflow or endless phase switching)",
-    }
-    if status == STATUS_AIRBORNE and t_end == 0.0:
-        messages["airborne"] = (
-            "the normal force is not positive at release: the ball would leave the lane "
-            "(omega^2 |offset| exceeds g); the model assumes contact"
-        )
+    """Table III metrics from the final state and the event table
+    (:func:`bowlrec.core.summary.summary_columns` for one run)."""
+    slide_x = float(first_slide_x(ev, ev.shape[0]))
+    cols = summary_columns(
+        np.array([status]),
+        np.array([t_end], dtype=np.float64),
+        np.asarray(y_end, dtype=np.float64).reshape(1, -1),
+        initial_state(plan).reshape(1, -1),
+        np.array([slide_x]),
+        np.array([math.isnan(slide_x) and released_rolling(plan)]),
+        np.array([nsteps]),
+        np.array([nfev]),
+        np.array([ev.shape[0]]),
+    )
+    return summary_from_columns(cols, 0, plan.max_time_s, plan.max_steps, status)
+
+
+def summary_from_columns(
+    cols: dict[str, Any], i: int, max_time_s: float, max_steps: int, status: int
+) -> Summary:
+    """Row ``i`` of :func:`~bowlrec.core.summary.summary_columns` as a Summary (NaN -> None)."""
+
+    def opt(name: str) -> float | None:
+        v = float(cols[name][i])
+        return None if math.isnan(v) else v
+
+    outcome = str(cols["outcome"][i])
+    t_end = float(cols["time_s"][i])
+    x_end = float(cols["x_end_m"][i])
     return Summary(
         outcome=outcome,
-        message=messages.get(outcome, outcome),
-        slide_m=slide,
-        hook_m=hook,
-        pocket_deg=pocket,
-        time_s=float(t_end),
-        x_end_m=float(y_end[0]),
-        y_end_m=float(y_end[1]),
-        speed_end_mps=speed,
-        rev_rate_end_rpm=rev,
-        n_steps=nsteps,
-        n_rhs=nfev,
-        n_events=int(ev.shape[0]),
+        message=summary_message(outcome, t_end, x_end, max_time_s, max_steps, status),
+        slide_m=opt("slide_m"),
+        hook_m=opt("hook_m"),
+        pocket_deg=opt("pocket_deg"),
+        time_s=t_end,
+        x_end_m=x_end,
+        y_end_m=float(cols["y_end_m"][i]),
+        speed_end_mps=float(cols["speed_end_mps"][i]),
+        rev_rate_end_rpm=float(cols["rev_rate_end_rpm"][i]),
+        n_steps=int(cols["n_steps"][i]),
+        n_rhs=int(cols["n_rhs"][i]),
+        n_events=int(cols["n_events"][i]),
     )

@@ -145,3 +145,23 @@ class Trajectory:
         arrays: dict[str, Any] = {"events_json": events, "summary_json": summary, **self.arrays()}
         np.savez_compressed(path, **arrays)
         return path
+
+
+def summary_trajectory(events: list[Event], summary: Summary) -> Trajectory:
+    """A Trajectory without samples (a summary-only run): its events and summary."""
+    return Trajectory(
+        t_s=np.zeros(0),
+        position_m=np.zeros((0, 3)),
+        velocity_mps=np.zeros((0, 3)),
+        quaternion_wxyz=np.zeros((0, 4)),
+        omega_radps=np.zeros((0, 3)),
+        phase=np.zeros(0, dtype=np.int8),
+        mu=np.zeros(0),
+        normal_force_N=np.zeros(0),
+        friction_force_N=np.zeros((0, 3)),
+        slip_mps=np.zeros((0, 3)),
+        energy_J=np.zeros(0),
+        alpha_radps2=np.zeros((0, 3)),
+        events=events,
+        summary=summary,
+    )

@@ -2,13 +2,14 @@
 
 A job is a ``bowlrec-job`` spec (a base scene plus sweeps, see :class:`bowlrec.batch.JobSpec`),
 or the shorthand ``{"name": ..., "scenes": [...]}`` (a ``scenes`` sweep that keeps each scene's
-own ``options``). At submission the job is expanded and every run validated
-(:func:`bowlrec.batch.prepare_runs`; library balls are frozen to ``name@version``), then persisted
-in ``ARCHIVE/jobs/``: ``<id>.spec.json`` (the job and every prepared run: physical scene, content
-run ID or the error that makes it a failure row; written once) and ``<id>.json`` (the status
-record, replaced atomically as the job progresses). One background thread runs the jobs in
-order through :func:`bowlrec.batch.run_prepared` (in this process, a local process pool or a Dask
-cluster); this process is the archive's single writer.
+own ``options``). At submission the job is checked as a whole without expanding it
+(:func:`bowlrec.batch.job_context`: base scene, paths, values, library balls, which are frozen
+to ``name@version``), then persisted in ``ARCHIVE/jobs/``: ``<id>.spec.json`` (the job; written
+once), ``<id>.json`` (the status record, replaced atomically as the job progresses) and
+``<id>.runs`` (the run IDs, appended and fsynced chunk by chunk before the chunk's runs are
+registered). One background thread runs the jobs in
+order on the batch engine, :func:`bowlrec.batch.run_job` (in this process, a local process pool
+or a Dask cluster): workers prepare, simulate and seal segments, this process registers them.
 
 A run is visible only once its file is renamed into place and its index row committed, and the
 archive is the source of truth for progress: when the server starts, a job that was queued or
@@ -26,6 +27,7 @@ import builtins
 import fcntl
 import json
 import logging
+import os
 import queue
 import threading
 import time
@@ -36,10 +38,11 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
 from bowlrec.archive import Archive
+from bowlrec.archive.run_id import RUN_ID_LENGTH
 from bowlrec.sinks.atomic import atomic_path, remove_stale_parts
 
 if TYPE_CHECKING:
-    from bowlrec.batch import JobSpec, PreparedRun
+    from bowlrec.batch import ChunkTable, JobSpec
 
 from .models import JobFailure, JobStatus, JobStatusName, SpecError
 
@@ -114,14 +117,15 @@ def parse_job(body: Any) -> JobSpec:
 
 @dataclass
 class JobRecord:
-    """The persisted state of one job (``jobs/<id>.json``); ``run_ids`` has one entry per run
-    of the job (None for a run that is invalid before simulation)."""
+    """The persisted state of one job (``jobs/<id>.json``). ``run_ids`` (one entry per run of
+    the job, None until its chunk finished or when it is invalid before simulation) is kept in
+    ``jobs/<id>.runs`` instead: lines ``index run_id`` appended, fsynced, before each chunk's
+    runs are registered in the index, so the file names every run the archive lists."""
 
     job_id: str
     name: str
     status: JobStatusName
     total: int
-    run_ids: list[str | None]
     created_at: str
     updated_at: str
     done: int = 0
@@ -130,7 +134,9 @@ class JobRecord:
     error: str | None = None
     failures: list[dict[str, Any]] = field(default_factory=list)
 
-    def to_status(self, with_runs: bool = False) -> JobStatus:
+    def to_status(
+        self, with_runs: bool = False, run_ids: list[str | None] | None = None
+    ) -> JobStatus:
         return JobStatus(
             job_id=self.job_id,
             name=self.name,
@@ -143,14 +149,14 @@ class JobRecord:
             updated_at=self.updated_at,
             error=self.error,
             resumable=self.status in FINAL and self.done < self.total,
-            run_ids=list(self.run_ids) if with_runs else None,
+            run_ids=run_ids if with_runs else None,
             failures=[JobFailure(**f) for f in self.failures],
         )
 
-    def archived(self, archive: Archive) -> int:
+    def archived(self, archive: Archive, run_ids: list[str | None]) -> int:
         """Runs of this job that are in the archive (duplicates counted per run)."""
-        present = archive.rows(r for r in self.run_ids if r is not None)
-        return sum(1 for r in self.run_ids if r is not None and r in present)
+        present = archive.rows(r for r in run_ids if r is not None)
+        return sum(1 for r in run_ids if r is not None and r in present)
 
 
 class JobManager:
@@ -158,7 +164,8 @@ class JobManager:
 
     ``workers``: 0 simulates in the job thread of this process, N > 0 in a local process pool
     of N; ``scheduler``: a dask.distributed address (``tcp://host:port``) instead;
-    ``chunk_size``: runs per task sent to a worker (progress and cancellation granularity).
+    ``chunk_size``: runs per task sent to a worker (None: the batch engine's default; progress
+    and cancellation granularity).
     """
 
     def __init__(
@@ -167,7 +174,7 @@ class JobManager:
         *,
         workers: int = 0,
         scheduler: str | None = None,
-        chunk_size: int = 8,
+        chunk_size: int | None = None,
     ) -> None:
         self.archive = archive
         self.workers = workers
@@ -212,13 +219,15 @@ class JobManager:
             if path.name.endswith(".spec.json"):
                 continue
             try:
-                rec = JobRecord(**json.loads(path.read_text()))
+                data = json.loads(path.read_text())
+                data.pop("run_ids", None)  # records that kept the run IDs inline
+                rec = JobRecord(**data)
             except (OSError, ValueError, TypeError) as err:
                 log.warning("skipping unreadable job record %s: %s", path, err)
                 continue
             if rec.status in ("queued", "running"):
                 rec.status = "interrupted"
-                rec.done = rec.archived(self.archive)
+                rec.done = rec.archived(self.archive, self._run_ids(rec))
                 rec.updated_at = _now()
                 self._persist(rec)
             self._records[rec.job_id] = rec
@@ -250,38 +259,27 @@ class JobManager:
     # -- requests ------------------------------------------------------------------------------
 
     def submit(self, body: Any) -> JobStatus:
-        """Validate and expand a job (:class:`SpecError` when the job as a whole is invalid;
-        an invalid combination becomes a failure row), persist it and queue it."""
-        from bowlrec.batch import JobError, prepare_runs
+        """Check a job as a whole (:class:`SpecError` when it is invalid; an invalid
+        combination becomes a failure row when it runs), persist it and queue it."""
+        from bowlrec.batch import JobError, job_context
+        from bowlrec.batch.job import freeze_balls
 
         job = parse_job(body)
         try:
-            prepared = prepare_runs(job, balls=self.archive.balls)
+            job = freeze_balls(job, job_context(job, balls=self.archive.balls))
         except JobError as err:
             raise SpecError(str(err)) from None
-        items = [
-            {
-                "index": p.index,
-                "params": p.params,
-                "scene": None if p.scene is None else p.scene.model_dump(mode="json"),
-                "ball_ref": p.ball_ref,
-                "run_id": p.run_id,
-                "error": p.error,
-            }
-            for p in prepared
-        ]
         now = _now()
         rec = JobRecord(
             job_id=uuid.uuid4().hex[:16],
             name=job.name,
             status="queued",
-            total=len(items),
-            run_ids=[p.run_id for p in prepared],
+            total=job.count(),
             created_at=now,
             updated_at=now,
         )
         with atomic_path(self._spec_path(rec.job_id)) as tmp:
-            tmp.write_text(json.dumps({"job": job.model_dump(mode="json"), "items": items}))
+            tmp.write_text(json.dumps({"job": job.model_dump(mode="json", by_alias=True)}))
         with self._mutex:
             self._records[rec.job_id] = rec
             self._cancel[rec.job_id] = threading.Event()
@@ -291,7 +289,8 @@ class JobManager:
 
     def get(self, job_id: str, with_runs: bool = True) -> JobStatus:
         with self._mutex:
-            return self._record(job_id).to_status(with_runs)
+            rec = self._record(job_id)
+            return rec.to_status(with_runs, self._run_ids(rec) if with_runs else None)
 
     def list(self) -> builtins.list[JobStatus]:
         """Every job, newest first (without the per-run IDs)."""
@@ -346,63 +345,68 @@ class JobManager:
                 with self._mutex:
                     self._set(rec, "failed", error=f"{type(err).__name__}: {err}")
 
-    def _prepared(self, job_id: str) -> builtins.list[PreparedRun]:
-        """The job's runs as persisted at submission (scenes re-resolved, IDs as stored)."""
-        from bowlrec.batch import PreparedRun
-        from bowlrec.spec import Scene
+    def _job(self, job_id: str) -> JobSpec:
+        """The job as persisted at submission (library balls frozen)."""
+        from bowlrec.batch import JobSpec
 
-        out = []
-        for it in json.loads(self._spec_path(job_id).read_text())["items"]:
-            scene = None if it["scene"] is None else Scene.model_validate(it["scene"])
-            plan = None if scene is None else scene.resolve()
-            out.append(
-                PreparedRun(
-                    it["index"],
-                    it["params"],
-                    scene,
-                    plan,
-                    it["run_id"],
-                    it["ball_ref"],
-                    it["error"],
-                )
-            )
-        return out
+        return JobSpec.model_validate(json.loads(self._spec_path(job_id).read_text())["job"])
 
     def _run(self, rec: JobRecord, cancel: threading.Event) -> None:
-        from bowlrec.batch import BatchProgress, run_prepared
+        from bowlrec.batch import BatchProgress, run_job
 
         last = [0.0]
+        failures: builtins.list[dict[str, Any]] = []
+        runs_file = open(self._runs_path(rec.job_id), "a", encoding="ascii")  # noqa: SIM115
 
         def progress(p: BatchProgress) -> None:
-            if time.monotonic() - last[0] < PERSIST_INTERVAL_S:
-                with self._mutex:  # counts in memory only
-                    rec.done, rec.failed, rec.skipped = p.done - p.failed, p.failed, p.archived
-                return
-            last[0] = time.monotonic()
             with self._mutex:
                 rec.done, rec.failed, rec.skipped = p.done - p.failed, p.failed, p.archived
+                if time.monotonic() - last[0] < PERSIST_INTERVAL_S:
+                    return  # counts in memory only
+                last[0] = time.monotonic()
                 rec.updated_at = _now()
                 self._persist(rec, durable=False)
 
-        result = run_prepared(
-            self._prepared(rec.job_id),
+        def before_register(table: ChunkTable) -> None:
+            """The chunk's run IDs reach the disk before its runs reach the index."""
+            lines = [
+                f"{int(i)} {rid}\n"
+                for i, rid in zip(table.index.tolist(), table.run_id, strict=True)
+                if rid is not None
+            ]
+            runs_file.write("".join(lines))
+            runs_file.flush()
+            os.fsync(runs_file.fileno())
+            failures.extend(
+                {
+                    "index": int(table.index[i]),
+                    "run_id": table.run_id[i],
+                    "error": str(table.error[i]),
+                }
+                for i, status in enumerate(table.status)
+                if status == "failed"
+            )
+
+        result = run_job(
+            self._job(rec.job_id),
             self.archive,
             workers=self.workers,
             scheduler=self.scheduler,
             chunk_size=self.chunk_size,
             progress=progress,
             cancel=cancel,
+            before_register=before_register,
+            sink=lambda table: None,  # the rows are in the runs file and the failures list
         )
+        runs_file.close()
         counts = result.counts
         with self._mutex:
             rec.done = counts["ok"] + counts["archived"]
             rec.failed, rec.skipped = counts["failed"], counts["archived"]
-            rec.failures = [
-                {"index": r["index"], "run_id": r["run_id"], "error": str(r["error"])}
-                for r in result.rows
-                if r["status"] == "failed"
-            ]
-            if self._stopping.is_set() and result.cancelled:
+            rec.failures = failures
+            if result.error is not None:
+                self._set(rec, "failed", error=result.error)
+            elif self._stopping.is_set() and result.cancelled:
                 self._set(rec, "interrupted")
             elif result.cancelled:
                 self._set(rec, "cancelled")
@@ -430,6 +434,22 @@ class JobManager:
 
     def _spec_path(self, job_id: str) -> Path:
         return self.dir / f"{job_id}.spec.json"
+
+    def _runs_path(self, job_id: str) -> Path:
+        return self.dir / f"{job_id}.runs"
+
+    def _run_ids(self, rec: JobRecord) -> builtins.list[str | None]:
+        """The job's run IDs by index (None: not known yet) from its runs file."""
+        ids: builtins.list[str | None] = [None] * rec.total
+        try:
+            text = self._runs_path(rec.job_id).read_text(encoding="ascii")
+        except FileNotFoundError:
+            return ids
+        for line in text.splitlines():
+            index, _, rid = line.partition(" ")
+            if index.isdigit() and int(index) < rec.total and len(rid) == RUN_ID_LENGTH:
+                ids[int(index)] = rid  # a line cut short by a kill is skipped
+        return ids
 
 
 def _root_as_job(line: str) -> str:

@@ -1,0 +1,705 @@
+"""The worker's side of a batch: prepare, simulate and store one chunk of a job's runs.
+
+A :class:`ChunkTask` names a range of the job's runs; :func:`run_chunk` expands only those
+points (:meth:`~bowlrec.batch.job.JobSpec.points`), prepares them (the fast delivery-sweep path
+of :mod:`bowlrec.batch.fastprep`, or validate + resolve per run), looks up which are archived
+already, simulates the rest (summary-only runs in one call of the compiled many-delivery kernel,
+:func:`bowlrec.core.batch.run_batch`; recorded runs through :func:`bowlrec.core.solver.solve`),
+and stores them: as a sealed segment it writes itself (the parent only registers it) or, when
+the worker cannot reach the archive's files, as records shipped back for the parent to seal. It
+returns the chunk's table columns (:class:`ChunkTable`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from bowlrec.core.summary import FLOAT_METRICS, INT_METRICS
+from bowlrec.core.trajectory import EVENT_KINDS
+
+if TYPE_CHECKING:
+    from bowlrec.archive import Archive, RunRecord, SegmentInfo, SummaryRuns
+    from bowlrec.core.batch import PackedPlans
+    from bowlrec.core.plan import Plan
+    from bowlrec.core.trajectory import Summary
+
+    from .fastprep import FastSweep
+    from .job import JobSpec, Point, PreparedRun
+
+__all__ = [
+    "FAILED_OUTCOMES",
+    "METRIC_COLUMNS",
+    "ChunkResult",
+    "ChunkTable",
+    "ChunkTask",
+    "JobContext",
+    "WriteTarget",
+    "run_chunk",
+]
+
+#: outcomes that mean the model or the solver gave up: recorded as failures, not archived
+FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
+#: summary metrics of every table row (units in the names)
+METRIC_COLUMNS = ("outcome", *FLOAT_METRICS, *INT_METRICS)
+#: event kind name -> the kernels' code
+_EVENT_CODES = {name: float(code) for code, name in EVENT_KINDS.items()}
+
+
+@dataclass(frozen=True)
+class JobContext:
+    """What a worker needs to prepare any run of a job (small and picklable).
+
+    base_*: the validated base scene as a JSON mapping (library ball substituted);
+    balls: the library balls the job names ("name" or "name@version" -> (spec mapping,
+    "name@version")), resolved by the parent; ball_refs: ball-spec SHA-256 -> newest library
+    reference (runs whose ball equals a library spec carry its name); fast_paths: the swept
+    paths when :class:`~bowlrec.batch.fastprep.FastSweep` prepares the job, else None.
+    """
+
+    key: str
+    job: JobSpec
+    base_bowler: bool
+    base_data: dict[str, Any]
+    base_ref: str | None
+    base_dir: str
+    balls: dict[str, tuple[dict[str, Any], str]]
+    ball_refs: dict[str, str]
+    fast_paths: tuple[str, ...] | None
+    replay_dir: str | None = None
+    formats: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class WriteTarget:
+    """Where a worker stores runs: the archive's root; ``mode`` "yes" (write segments),
+    "no" (ship records back) or "auto" (write when ``probe`` exists with ``token``: the worker
+    sees the archive's filesystem); ``durable`` fsyncs segments."""
+
+    root: str
+    mode: str = "yes"
+    probe: str | None = None
+    token: str | None = None
+    durable: bool = True
+
+    def worker_writes(self) -> bool:
+        if self.mode != "auto":
+            return self.mode == "yes"
+        if self.probe is None:
+            return False
+        try:
+            return Path(self.probe).read_text() == self.token
+        except OSError:
+            return False
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """Runs ``start`` to ``stop`` of the job; ``target`` None: nothing is stored."""
+
+    context: JobContext
+    start: int
+    stop: int
+    target: WriteTarget | None
+
+
+@dataclass
+class ChunkTable:
+    """A chunk's rows of the batch table, column by column (job order).
+
+    params: swept path -> values; run_id/status/error: per row (None where absent); metrics:
+    ``outcome`` (object), float metrics (float64, NaN: no value), int metrics (int64, valid
+    where ``has_metrics``)."""
+
+    index: np.ndarray
+    params: dict[str, list[Any] | np.ndarray]
+    run_id: list[str | None]
+    status: list[str]
+    error: list[str | None]
+    metrics: dict[str, np.ndarray]
+    has_metrics: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.index.shape[0])
+
+    @classmethod
+    def empty(cls, index: np.ndarray, params: dict[str, list[Any] | np.ndarray]) -> ChunkTable:
+        n = int(index.shape[0])
+        metrics: dict[str, np.ndarray] = {"outcome": np.full(n, None, dtype=object)}
+        metrics.update({k: np.full(n, np.nan) for k in FLOAT_METRICS})
+        metrics.update({k: np.zeros(n, dtype=np.int64) for k in INT_METRICS})
+        return cls(
+            index=index,
+            params=params,
+            run_id=[None] * n,
+            status=["cancelled"] * n,
+            error=[None] * n,
+            metrics=metrics,
+            has_metrics=np.zeros(n, dtype=bool),
+        )
+
+    def set_metrics(self, i: int, values: dict[str, Any]) -> None:
+        """Row ``i``'s metrics from a mapping (None: no value)."""
+        for k in METRIC_COLUMNS:
+            v = values.get(k)
+            if k == "outcome":
+                self.metrics[k][i] = v
+            elif k in INT_METRICS:
+                self.metrics[k][i] = 0 if v is None else int(v)
+            else:
+                self.metrics[k][i] = np.nan if v is None else float(v)
+        self.has_metrics[i] = values.get("outcome") is not None
+
+
+@dataclass
+class ChunkResult:
+    """What a worker returns: the table rows, the segment it sealed (or the records to seal),
+    and its counts and times (s)."""
+
+    start: int
+    stop: int
+    table: ChunkTable
+    segment: SegmentInfo | None = None
+    records: list[RunRecord] = field(default_factory=list)
+    #: summary-only runs as columns, for the parent to seal (worker cannot write)
+    summary_runs: SummaryRuns | None = None
+    simulated: int = 0
+    simulate_s: float = 0.0
+    write_s: float = 0.0
+    replays: list[Path] = field(default_factory=list)
+    #: a write that failed in the worker (full disk): its runs are failed rows
+    error: str | None = None
+
+
+# -- per-process caches -------------------------------------------------------------------------
+
+_FAST: dict[str, FastSweep] = {}
+_ARCHIVES: dict[str, Archive] = {}
+
+
+def _fast(ctx: JobContext) -> FastSweep:
+    fast = _FAST.get(ctx.key)
+    if fast is None:
+        from bowlrec.spec import Scene
+
+        from .fastprep import FastSweep
+
+        assert ctx.fast_paths is not None
+        if len(_FAST) > 8:
+            _FAST.clear()
+        fast = _FAST[ctx.key] = FastSweep(Scene.model_validate(ctx.base_data), ctx.fast_paths)
+    return fast
+
+
+def _archive(root: str) -> Archive:
+    archive = _ARCHIVES.get(root)
+    if archive is None:
+        from bowlrec.archive import Archive
+
+        archive = _ARCHIVES[root] = Archive(root, create=False)
+    return archive
+
+
+# -- preparation ----------------------------------------------------------------------------------
+
+
+def prepare_point(ctx: JobContext, point: Point) -> PreparedRun:
+    """Validate, convert (bowler scenes), resolve and hash one run of the job (the general
+    path; see :func:`bowlrec.batch.job.prepare_point_data`)."""
+    from .job import point_data, prepare_one
+
+    try:
+        params, bowler, data, ref = point_data(ctx, point)
+    except ValueError as err:  # JobError: an entry that cannot be read
+        return _prepared_error(point, str(err))
+    return prepare_one(point.index, params, bowler, data, ref)
+
+
+def _prepared_error(point: Point, error: str) -> PreparedRun:
+    from .job import PreparedRun
+
+    return PreparedRun(point.index, dict(point.overrides), error=error)
+
+
+# -- the chunk ------------------------------------------------------------------------------------
+
+
+def run_chunk(task: ChunkTask) -> ChunkResult:
+    """Prepare, simulate and store runs ``task.start`` to ``task.stop`` (in a worker)."""
+    ctx = task.context
+    writes = task.target is not None and task.target.worker_writes()
+    archive = _archive(task.target.root) if writes and task.target is not None else None
+    if ctx.fast_paths is not None:
+        index = np.arange(task.start, min(task.stop, ctx.job.count()), dtype=np.int64)
+        return _run_fast(ctx, task, index, archive)
+    points = ctx.job.points(task.start, task.stop)
+    index = np.fromiter((p.index for p in points), dtype=np.int64, count=len(points))
+    return _run_general(ctx, task, points, index, archive)
+
+
+def _archived_rows(archive: Archive | None, run_ids: Sequence[str]) -> dict[str, dict[str, Any]]:
+    if archive is None or not run_ids:
+        return {}
+    return archive.rows(set(run_ids))
+
+
+def _messages(
+    summaries: dict[str, np.ndarray], rows: Sequence[int], packed: PackedPlans
+) -> list[str]:
+    from bowlrec.core.summary import summary_message
+
+    out = []
+    for i in rows:
+        outcome = str(summaries["outcome"][i])
+        out.append(
+            summary_message(
+                outcome,
+                float(summaries["time_s"][i]),
+                float(summaries["x_end_m"][i]),
+                float(packed.lane[i, 2]),
+                int(packed.opts[i, 3]),
+                int(summaries["_status"][i]),
+            )
+        )
+    return out
+
+
+def _summary(cols: dict[str, np.ndarray], i: int, message: str) -> Summary:
+    from bowlrec.core.trajectory import Summary
+
+    def opt(name: str) -> float | None:
+        v = float(cols[name][i])
+        return None if math.isnan(v) else v
+
+    return Summary(
+        outcome=str(cols["outcome"][i]),
+        message=message,
+        slide_m=opt("slide_m"),
+        hook_m=opt("hook_m"),
+        pocket_deg=opt("pocket_deg"),
+        time_s=float(cols["time_s"][i]),
+        x_end_m=float(cols["x_end_m"][i]),
+        y_end_m=float(cols["y_end_m"][i]),
+        speed_end_mps=float(cols["speed_end_mps"][i]),
+        rev_rate_end_rpm=float(cols["rev_rate_end_rpm"][i]),
+        n_steps=int(cols["n_steps"][i]),
+        n_rhs=int(cols["n_rhs"][i]),
+        n_events=int(cols["n_events"][i]),
+    )
+
+
+def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
+    """Run the many-delivery kernel (this thread): metric columns, the raw output, seconds."""
+    from bowlrec.core.batch import B_STATUS, batch_metrics, run_batch
+
+    start = time.perf_counter()
+    result = run_batch(packed, parallel=False)
+    wall = time.perf_counter() - start
+    cols = batch_metrics(packed, result)
+    cols["_status"] = result.out[:, B_STATUS].astype(np.int64)
+    return cols, result, wall
+
+
+def _events(result: Any, i: int) -> list[tuple[str, float, str, float, float, float]] | None:
+    """Run ``i``'s events from the batch output (None when it had more than the batch keeps)."""
+    from bowlrec.core.batch import EVENT_CAP
+    from bowlrec.core.trajectory import EVENT_KINDS
+
+    n = int(result.out[i, -1])
+    if n > EVENT_CAP:
+        return None
+    return [
+        (
+            EVENT_KINDS[int(row[1])],
+            float(row[4]),
+            "rolling" if row[5] == 1.0 else "sliding",
+            float(row[0]),
+            float(row[2]),
+            float(row[3]),
+        )
+        for row in result.events[i, :n]
+    ]
+
+
+class _Store:
+    """Collects a chunk's records; seals them as a segment (worker writes) or ships them."""
+
+    def __init__(self, archive: Archive | None, target: WriteTarget | None) -> None:
+        self.archive = archive
+        self.target = target
+        self.records: list[RunRecord] = []
+        self.builder: Any = None
+        self.provenance: dict[str, Any] | None = None
+
+    def add(self, record: RunRecord) -> None:
+        self.records.append(record)
+
+    def finish(self, result: ChunkResult) -> None:
+        if not self.records or self.target is None:
+            return
+        if self.archive is None:
+            result.records = self.records
+            return
+        from bowlrec.archive import ArchiveWriteError
+
+        start = time.perf_counter()
+        builder = self.archive.builder()
+        for rec in self.records:
+            builder.append(rec)
+        try:
+            result.segment = self.archive.seal(builder, durable=self.target.durable)
+        except ArchiveWriteError as err:
+            result.error = str(err)
+        result.write_s += time.perf_counter() - start
+
+
+def _run_fast(
+    ctx: JobContext,
+    task: ChunkTask,
+    index: np.ndarray,
+    archive: Archive | None,
+) -> ChunkResult:
+    """A chunk of a delivery sweep: prepared, simulated and stored column by column."""
+    from bowlrec.core.batch import take
+
+    fast = _fast(ctx)
+    assert ctx.fast_paths is not None
+    chunk = fast.prepare(index, ctx.job.columns(task.start, task.stop, ctx.fast_paths))
+    table = ChunkTable.empty(index, dict(chunk.params))
+    table.run_id = list(chunk.run_ids)
+    result = ChunkResult(task.start, task.stop, table)
+    archived = _archived_rows(archive, chunk.run_ids)
+    first: dict[str, int] = {}
+    for i, rid in enumerate(chunk.run_ids):
+        if rid in archived:
+            table.status[i] = "archived"
+            table.set_metrics(i, archived[rid])
+        else:
+            first.setdefault(rid, i)
+    todo = np.fromiter(first.values(), dtype=np.int64, count=len(first))
+    if todo.size:
+        packed = take(chunk.packed, todo)
+        cols, raw, wall = _kernel(packed)
+        result.simulated = int(todo.size)
+        result.simulate_s = wall
+        ok = _set_kernel_metrics(table, todo, cols, packed)
+        if task.target is not None and ok.any():
+            _store_fast(ctx, task, fast, chunk, todo[ok], cols, raw, packed, archive, result, ok)
+    _copy_duplicates(table, chunk.run_ids, first)
+    _fail_unwritten(result)
+    return result
+
+
+def _set_kernel_metrics(
+    table: ChunkTable, rows: np.ndarray, cols: dict[str, np.ndarray], packed: PackedPlans
+) -> np.ndarray:
+    """Rows ``rows`` take the kernel's metrics and status; returns the mask of rows that
+    succeeded (not a failed outcome)."""
+    for k in METRIC_COLUMNS:
+        table.metrics[k][rows] = cols[k]
+    table.has_metrics[rows] = True
+    failed = np.isin(cols["outcome"], list(FAILED_OUTCOMES))
+    status, error = table.status, table.error
+    for j in np.flatnonzero(~failed).tolist():
+        status[rows[j]] = "ok"
+    for j in np.flatnonzero(failed).tolist():
+        message = _messages(cols, [j], packed)[0]
+        status[rows[j]], error[rows[j]] = "failed", f"{cols['outcome'][j]}: {message}"
+    return ~failed
+
+
+def _store_fast(
+    ctx: JobContext,
+    task: ChunkTask,
+    fast: FastSweep,
+    chunk: Any,
+    rows: np.ndarray,
+    cols: dict[str, np.ndarray],
+    raw: Any,
+    packed: PackedPlans,
+    archive: Archive | None,
+    result: ChunkResult,
+    ok: np.ndarray,
+) -> None:
+    """Store the chunk's successful runs ``rows`` (kernel rows where ``ok``) as one segment."""
+    from bowlrec.archive import ArchiveWriteError, SummaryRuns
+    from bowlrec.archive.balls import ball_sha
+    from bowlrec.archive.store import pattern_label
+    from bowlrec.core.batch import B_EVENTS, EVENT_CAP
+
+    assert task.target is not None
+    start = time.perf_counter()
+    scene = fast.scene
+    sha = ball_sha(scene.ball)
+    k = np.flatnonzero(ok)
+    n_events = raw.out[k, B_EVENTS].astype(np.int64)
+    events = raw.events[k]
+    over = np.flatnonzero(n_events > EVENT_CAP)
+    if over.size:  # more events than the batch keeps: the one-run solver has them all
+        from bowlrec.core.solver import solve
+
+        full = {j: solve(chunk.plan(int(rows[j]), fast.plan)).events for j in over.tolist()}
+        wider = np.zeros((events.shape[0], max(len(e) for e in full.values()), events.shape[2]))
+        wider[:, : events.shape[1]] = events
+        for j, evs in full.items():
+            wider[j, : len(evs)] = [
+                (e.t_s, _EVENT_CODES[e.kind], e.x_m, e.y_m, e.mu, float(e.phase == "rolling"))
+                for e in evs
+            ]
+        events = wider
+    v, w = chunk.velocity0[rows], chunk.omega0[rows]
+    runs = SummaryRuns(
+        strings={
+            "run_id": [chunk.run_ids[i] for i in rows.tolist()],
+            "name": scene.name,
+            "ball_ref": ctx.base_ref or ctx.ball_refs.get(sha, ""),
+            "ball_sha": sha,
+            "pattern": pattern_label(scene),
+            "record": "summary",
+            "solver": "closed_form" if bool(fast._packed.flags[0, 0]) else "integrator",
+        },
+        floats={
+            "speed_mps": np.hypot(v[:, 0], v[:, 1]),
+            "rev_rate_rpm": np.sqrt(w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2])
+            * 60.0
+            / (2.0 * np.pi),
+            "mass_kg": np.full(rows.size, float(fast.plan.mass_kg)),
+            "rtol": np.full(rows.size, float(fast.plan.rtol)),
+            "wall_time_s": np.full(rows.size, result.simulate_s / max(1, ok.size)),
+        },
+        created_at_ns=time.time_ns(),
+        scene_json=[chunk.scene_json[i] for i in rows.tolist()],
+        summary={name: cols[name][k] for name in METRIC_COLUMNS},
+        messages=_messages(cols, k.tolist(), packed),
+        events=events,
+        n_events=n_events,
+    )
+    if archive is None:
+        result.summary_runs = runs
+    else:
+        try:
+            result.segment = archive.seal(runs, durable=task.target.durable)
+        except ArchiveWriteError as err:
+            result.error = str(err)
+    result.write_s += time.perf_counter() - start
+
+
+def _copy_duplicates(
+    table: ChunkTable, run_ids: Sequence[str | None], first: dict[str, int]
+) -> None:
+    """Rows repeating a run of the same chunk take its status and metrics."""
+    for i, rid in enumerate(run_ids):
+        if rid is None or table.status[i] != "cancelled":
+            continue
+        j = first.get(rid)
+        if j is not None and j != i:
+            table.status[i], table.error[i] = table.status[j], table.error[j]
+            for _k, col in table.metrics.items():
+                col[i] = col[j]
+            table.has_metrics[i] = table.has_metrics[j]
+
+
+def _fail_unwritten(result: ChunkResult) -> None:
+    """After a failed write, the chunk's new runs are failed rows naming the error."""
+    if result.error is None:
+        return
+    table = result.table
+    for i, status in enumerate(table.status):
+        if status == "ok":
+            table.status[i], table.error[i] = "failed", f"not archived: {result.error}"
+
+
+def _run_general(
+    ctx: JobContext,
+    task: ChunkTask,
+    points: Sequence[Point],
+    index: np.ndarray,
+    archive: Archive | None,
+) -> ChunkResult:
+    prepared = [prepare_point(ctx, p) for p in points]
+    params: dict[str, list[Any]] = {}
+    for k, p in enumerate(prepared):
+        for name, value in p.params.items():
+            params.setdefault(name, [None] * len(prepared))[k] = value
+    table = ChunkTable.empty(index, dict(params))
+    table.run_id = [p.run_id for p in prepared]
+    result = ChunkResult(task.start, task.stop, table)
+    ids = [p.run_id for p in prepared if p.run_id is not None]
+    archived = _archived_rows(archive, ids)
+    first: dict[str, int] = {}
+    for i, p in enumerate(prepared):
+        if p.error is not None:
+            table.status[i], table.error[i] = "failed", p.error
+        elif p.run_id in archived:
+            table.status[i] = "archived"
+            table.set_metrics(i, archived[p.run_id])
+        elif p.run_id is not None:
+            first.setdefault(p.run_id, i)
+    todo = list(first.values())
+    store = _Store(archive, task.target)
+    summary_only = [i for i in todo if _summary_only(prepared[i].plan)]
+    recorded = [i for i in todo if i not in set(summary_only)]
+    if summary_only:
+        _general_summary(ctx, task, prepared, summary_only, table, store, result)
+    for i in recorded:
+        _general_recorded(ctx, task, prepared[i], i, table, store, result)
+    _copy_duplicates(table, table.run_id, first)
+    store.finish(result)
+    _fail_unwritten(result)
+    return result
+
+
+def _summary_only(plan: Plan | None) -> bool:
+    from bowlrec.core.plan import RECORD_SUMMARY
+
+    return plan is not None and plan.record_mode == RECORD_SUMMARY
+
+
+def _record(
+    ctx: JobContext,
+    prep: PreparedRun,
+    summary: Summary,
+    events: list[tuple[str, float, str, float, float, float]],
+    wall: float,
+    solver: str,
+    trajectory: Any = None,
+) -> RunRecord:
+    """A general-path run as a segment record."""
+    from bowlrec.archive import RunRecord
+    from bowlrec.archive.balls import ball_sha
+    from bowlrec.archive.store import pattern_label
+    from bowlrec.core.trajectory import Event, summary_trajectory
+    from bowlrec.sinks.common import RunData
+
+    assert prep.scene is not None and prep.plan is not None and prep.run_id is not None
+    sha = ball_sha(prep.scene.ball)
+    if trajectory is None:
+        trajectory = summary_trajectory(
+            [Event(t, k, x, y, mu, ph) for k, mu, ph, t, x, y in events], summary
+        )
+    run = RunData(prep.scene, prep.plan, trajectory, prep.run_id)
+    return RunRecord.from_run(
+        run,
+        wall_time_s=wall,
+        ball_ref=prep.ball_ref or ctx.ball_refs.get(sha, ""),
+        solver=solver,
+        ball_sha=sha,
+        pattern=pattern_label(prep.scene),
+    )
+
+
+def _general_summary(
+    ctx: JobContext,
+    task: ChunkTask,
+    prepared: Sequence[PreparedRun],
+    rows: Sequence[int],
+    table: ChunkTable,
+    store: _Store,
+    result: ChunkResult,
+) -> None:
+    from bowlrec.core.batch import pack_plans
+
+    plans = [prepared[i].plan for i in rows]
+    packed = pack_plans(plans)  # type: ignore[arg-type]
+    cols, raw, wall = _kernel(packed)
+    result.simulated += len(rows)
+    result.simulate_s += wall
+    messages = _messages(cols, range(len(rows)), packed)
+    for j, i in enumerate(rows):
+        summary = _summary(cols, j, messages[j])
+        table.set_metrics(i, summary.__dict__)
+        if summary.outcome in FAILED_OUTCOMES:
+            table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
+            continue
+        table.status[i] = "ok"
+        if task.target is None:
+            continue
+        prep = prepared[i]
+        events = _events(raw, j)
+        traj = None
+        if events is None:
+            from bowlrec.core.solver import solve
+
+            assert prep.plan is not None
+            traj = solve(prep.plan)
+            events = []
+        solver = "closed_form" if bool(packed.flags[j, 0]) else "integrator"
+        store.add(_record(ctx, prep, summary, events, wall / len(rows), solver, traj))
+
+
+def _general_recorded(
+    ctx: JobContext,
+    task: ChunkTask,
+    prep: PreparedRun,
+    i: int,
+    table: ChunkTable,
+    store: _Store,
+    result: ChunkResult,
+) -> None:
+    from bowlrec.core.solver import solve, use_closed_form
+
+    assert prep.plan is not None
+    start = time.perf_counter()
+    try:
+        traj = solve(prep.plan)
+    except Exception as err:  # a failing scene is a row, never a crashed batch
+        table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
+        return
+    wall = time.perf_counter() - start
+    result.simulated += 1
+    result.simulate_s += wall
+    summary = traj.summary
+    table.set_metrics(i, summary.__dict__)
+    if summary.outcome in FAILED_OUTCOMES:
+        table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
+        return
+    table.status[i] = "ok"
+    if task.target is None:
+        return
+    solver = "closed_form" if use_closed_form(prep.plan) else "integrator"
+    store.add(_record(ctx, prep, summary, [], wall, solver, traj))
+    _replays(ctx, prep, traj, result)
+
+
+def _replays(ctx: JobContext, prep: PreparedRun, traj: Any, result: ChunkResult) -> None:
+    if not ctx.formats or ctx.replay_dir is None:
+        return
+    from bowlrec.sinks.common import RunData
+
+    assert prep.scene is not None and prep.plan is not None
+    run = RunData(prep.scene, prep.plan, traj, prep.run_id)
+    folder = Path(ctx.replay_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    if "mcap" in ctx.formats:
+        from bowlrec.sinks.mcap_file import write_mcap
+
+        result.replays.append(write_mcap(run, folder / f"{prep.run_id}.mcap"))
+    if "rrd" in ctx.formats:
+        from bowlrec.sinks.rerun_recording import write_rrd
+
+        result.replays.append(write_rrd(run, folder / f"{prep.run_id}.rrd"))
+
+
+def new_probe(root: Path) -> tuple[str, str]:
+    """Write a probe file in the archive (path, token): a worker that reads the token there
+    shares the archive's filesystem."""
+    token = uuid.uuid4().hex
+    path = root / "segments" / f".probe-{token[:12]}"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(token)
+    return str(path), token
+
+
+def remove_probe(path: str | None) -> None:
+    if path is not None:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(path)

@@ -1,0 +1,217 @@
+"""Preparation at kernel speed for sweeps of the delivery: packed kernel inputs, run IDs and
+scene JSON for a chunk of runs without building a Scene or a Plan per run.
+
+A job qualifies when its base scene is physical and every swept path is one of
+:data:`FAST_PATHS` (speed, take-off angle and the spin components: the fields a delivery sweep
+varies). Those fields enter the Plan only through ``velocity0_mps`` and ``omega0_radps``, and
+the rest of the Plan (ball, lane, options) is the base scene's, resolved once by
+:meth:`~bowlrec.spec.Scene.resolve`; the two vectors are computed with the same operations in the
+same order as :func:`bowlrec.spec.resolve.resolve_scene`, so the Plans, kernel inputs and run IDs
+are bit-equal to resolving each scene (``tests/test_pipeline.py`` checks this on random points).
+There is one resolution logic: this module reuses ``resolve()``'s result for everything it does
+not vary.
+
+No run is validated one by one: the fields' own constraints are intervals (speed > 0, angle in
+(-90, 90), finite spin), checked by the job's validation on every grid or zip value and on both
+ends of every random or Latin hypercube range, which covers every point between them; none of
+these fields takes part in a check across fields.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from bowlrec.core.batch import PackedPlans
+    from bowlrec.core.plan import Plan
+    from bowlrec.spec import Scene
+
+__all__ = ["FAST_PATHS", "FastChunk", "FastSweep"]
+
+#: swept paths the fast preparation handles (element paths of the spin vector)
+FAST_PATHS = (
+    "delivery.speed_mps",
+    "delivery.takeoff_angle_deg",
+    "delivery.omega_radps[0]",
+    "delivery.omega_radps[1]",
+    "delivery.omega_radps[2]",
+)
+
+_MARK = "\x00M{}\x00"
+
+
+class _Template:
+    """JSON text with placeholders: literal pieces and, between them, which value goes there."""
+
+    def __init__(self, text: str, n: int, quoted: bool) -> None:
+        """``text`` holds the placeholder strings 0..n-1 once each; ``quoted``: a value
+        replaces the string with its quotes (a number goes there), else only its content."""
+        marks = []
+        for k in range(n):
+            mark = json.dumps(_MARK.format(k))
+            mark = mark if quoted else mark[1:-1]
+            marks.append((text.index(mark), k, mark))
+        marks.sort()
+        self.order = [k for _, k, _ in marks]
+        self.pieces: list[str] = []
+        pos = 0
+        for at, _, mark in marks:
+            self.pieces.append(text[pos:at])
+            pos = at + len(mark)
+        self.pieces.append(text[pos:])
+
+    def fill(self, values: Sequence[str]) -> str:
+        out = [self.pieces[0]]
+        for piece, k in zip(self.pieces[1:], self.order, strict=True):
+            out.append(values[k])
+            out.append(piece)
+        return "".join(out)
+
+
+@dataclass(frozen=True)
+class FastChunk:
+    """Prepared runs ``index`` of a chunk: kernel inputs, run IDs, scene JSON and the swept
+    values (``params``: path -> float64 array)."""
+
+    index: np.ndarray
+    params: dict[str, np.ndarray]
+    packed: PackedPlans
+    run_ids: list[str]
+    scene_json: list[bytes]
+    velocity0: np.ndarray
+    omega0: np.ndarray
+
+    def plan(self, i: int, base: Plan) -> Plan:
+        """The full Plan of run ``i`` (for the rare run the batch kernel cannot report whole)."""
+        return replace(
+            base, velocity0_mps=self.velocity0[i].copy(), omega0_radps=self.omega0[i].copy()
+        )
+
+
+class FastSweep:
+    """Fast preparation of a physical base scene's delivery sweep (see the module docs)."""
+
+    def __init__(self, base_scene: Scene, paths: Sequence[str]) -> None:
+        from bowlrec.archive.run_id import canonical_plan
+        from bowlrec.core.batch import pack_plans
+
+        from .job import apply_override
+
+        self.paths = list(paths)
+        self.scene = base_scene
+        self.plan = base_scene.resolve()
+        self._packed = pack_plans([self.plan])
+        d = base_scene.delivery
+        self.speed = float(d.speed_mps)
+        self.angle_deg = float(d.takeoff_angle_deg)
+        self.omega = np.asarray(d.omega_radps, dtype=np.float64)
+        # run ID: the canonical Plan's JSON with the five varying numbers as fields
+        canon = canonical_plan(self.plan)
+        canon["velocity0_mps"]["data"] = [_MARK.format(0), _MARK.format(1)]
+        canon["omega0_radps"]["data"] = [_MARK.format(k) for k in (2, 3, 4)]
+        from bowlrec import PHYSICS_VERSION
+
+        payload = json.dumps(
+            {"physics_version": PHYSICS_VERSION, "plan": canon},
+            sort_keys=True,
+            separators=(",", ":"),
+        )
+        template = _Template(payload, 5, quoted=False)
+        self._id_prefix = hashlib.sha256(template.pieces[0].encode())
+        self._id_rest = [p.encode() for p in template.pieces[1:]]
+        self._id_order = template.order
+        # scene JSON: the base scene with the swept fields as fields
+        data = base_scene.model_dump(mode="json")
+        for k, path in enumerate(self.paths):
+            apply_override(data, path, _MARK.format(k))
+        self._scene_template = _Template(
+            json.dumps(data, separators=(",", ":"), ensure_ascii=False),
+            len(self.paths),
+            quoted=True,
+        )
+
+    def _run_id(self, values: list[float]) -> str:
+        """SHA-256 of the canonical Plan (:func:`bowlrec.archive.run_id.run_id`) whose five
+        varying numbers are ``values`` (velocity x, y, spin x, y, z)."""
+        from bowlrec.archive.run_id import RUN_ID_LENGTH
+
+        h = self._id_prefix.copy()
+        for piece, k in zip(self._id_rest, self._id_order, strict=True):
+            h.update(values[k].hex().encode())
+            h.update(piece)
+        return h.hexdigest()[:RUN_ID_LENGTH]
+
+    @staticmethod
+    def applies(bowler: bool, paths: Sequence[str], has_scenes: bool) -> bool:
+        """True when a job with these properties can be prepared by this class."""
+        return not bowler and not has_scenes and bool(paths) and set(paths) <= set(FAST_PATHS)
+
+    def prepare(self, index: np.ndarray, columns: dict[str, np.ndarray]) -> FastChunk:
+        """Kernel inputs, run IDs and scene JSON of the runs whose swept values are
+        ``columns`` (path -> float64 array; NaN: the base scene's value)."""
+        from bowlrec.core.batch import PackedPlans
+
+        n = int(index.shape[0])
+        params = {}
+        for p in self.paths:
+            col = np.asarray(columns[p], dtype=np.float64)
+            missing = np.isnan(col)
+            if missing.any():
+                col = np.where(missing, self._base_value(p), col)
+            params[p] = col
+        speed, angle = params.get("delivery.speed_mps"), params.get("delivery.takeoff_angle_deg")
+        omega = np.empty((n, 3))
+        omega[:] = self.omega
+        for k in range(3):
+            spin = params.get(f"delivery.omega_radps[{k}]")
+            if spin is not None:
+                omega[:, k] = spin
+        velocity = np.empty((n, 2))
+        speeds = speed.tolist() if speed is not None else [self.speed] * n
+        angles = angle.tolist() if angle is not None else [self.angle_deg] * n
+        cos, sin, radians = math.cos, math.sin, math.radians
+        vx = [0.0] * n
+        vy = [0.0] * n
+        for i in range(n):  # math, as resolve_scene computes them (bit-equal)
+            a = radians(angles[i])
+            vx[i] = speeds[i] * cos(a)
+            vy[i] = speeds[i] * sin(a)
+        velocity[:, 0] = vx
+        velocity[:, 1] = vy
+        base = self._packed
+        y0 = np.repeat(base.y0, n, axis=0)
+        y0[:, 2:4] = velocity
+        y0[:, 8:11] = omega
+        packed = PackedPlans(
+            par=np.repeat(base.par, n, axis=0),
+            y0=y0,
+            x_edges=np.tile(base.x_edges, n),
+            x_off=np.arange(n + 1, dtype=np.int64) * base.x_edges.size,
+            y_edges=np.tile(base.y_edges, n),
+            y_off=np.arange(n + 1, dtype=np.int64) * base.y_edges.size,
+            mu=np.tile(base.mu, n),
+            mu_off=np.arange(n + 1, dtype=np.int64) * base.mu.size,
+            lane=np.repeat(base.lane, n, axis=0),
+            opts=np.repeat(base.opts, n, axis=0),
+            flags=np.repeat(base.flags, n, axis=0),
+        )
+        run_id = self._run_id
+        run_ids = [run_id(row) for row in np.concatenate([velocity, omega], axis=1).tolist()]
+        fill = self._scene_template.fill
+        lists = [params[p].tolist() for p in self.paths]
+        scene_json = [fill([repr(v) for v in vals]).encode() for vals in zip(*lists, strict=True)]
+        return FastChunk(index, params, packed, run_ids, scene_json, velocity, omega)
+
+    def _base_value(self, path: str) -> float:
+        if path == "delivery.speed_mps":
+            return self.speed
+        if path == "delivery.takeoff_angle_deg":
+            return self.angle_deg
+        return float(self.omega[int(path[-2])])

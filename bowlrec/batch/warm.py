@@ -1,0 +1,21 @@
+"""Imported by a batch's fork server: loads the compiled kernels from the on-disk cache once, so
+every worker forked from it starts ready (no per-worker import or cache load)."""
+
+from __future__ import annotations
+
+
+def _warm() -> None:
+    from bowlrec.core.batch import pack_plans, run_batch
+    from bowlrec.core.plan import RECORD_SUMMARY
+    from bowlrec.core.solver import solve
+    from bowlrec.spec import Scene
+
+    from . import chunks  # noqa: F401  (the worker's module)
+
+    plan = Scene.model_validate({"options": {"record": "summary"}}).resolve()
+    assert plan.record_mode == RECORD_SUMMARY
+    run_batch(pack_plans([plan]), parallel=False)
+    solve(Scene.model_validate({"options": {"record": "steps", "max_time_s": 0.01}}).resolve())
+
+
+_warm()
