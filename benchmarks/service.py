@@ -61,11 +61,12 @@ def _free_port() -> int:
 
 
 @contextmanager
-def server(archive: Path) -> Iterator[str]:
-    """A ``bowlrec serve`` subprocess; yields its base URL."""
+def server(archive: Path, *options: str) -> Iterator[str]:
+    """A ``bowlrec serve`` subprocess (with extra CLI ``options``); yields its base URL."""
     port = _free_port()
     env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
     cmd = [sys.executable, "-c", SERVE, "serve", "--archive", str(archive), "--port", str(port)]
+    cmd += list(options)
     proc = subprocess.Popen(
         [*cmd, "--log-level", "warning"], env=env, cwd=ROOT, stdout=subprocess.DEVNULL
     )

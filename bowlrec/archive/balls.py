@@ -20,7 +20,7 @@ import re
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeAlias
 
 from .index import transaction
 
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from .store import Archive
 
     #: a library entry holds a physical ball (SI, lane frame at release) or a spec sheet
-    AnyBall = Ball | BowlerBall
+    AnyBall: TypeAlias = Ball | BowlerBall
 
 __all__ = [
     "LIBRARY_FORMAT",

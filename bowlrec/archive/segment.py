@@ -267,8 +267,10 @@ class SegmentBuilder:
     :meth:`bowlrec.archive.Archive.register`'s work.
     """
 
-    def __init__(self, provenance: dict[str, Any]) -> None:
+    def __init__(self, provenance: dict[str, Any], *, samples: str = "gzip") -> None:
         self.provenance = dict(provenance)
+        #: storage filter of per-sample datasets: "gzip" or "none" (see write_segment)
+        self.samples = samples
         self.records: list[RunRecord] = []
         self._ids: set[str] = set()
 
@@ -389,7 +391,9 @@ class SegmentBuilder:
         finally:
             if collecting:
                 gc.enable()
-        return seal_columns(directory, columns, self.provenance, durable=durable)
+        return seal_columns(
+            directory, columns, self.provenance, durable=durable, samples=self.samples
+        )
 
 
 def seal_columns(
@@ -398,14 +402,16 @@ def seal_columns(
     provenance: dict[str, Any],
     *,
     durable: bool = True,
+    samples: str = "gzip",
 ) -> SegmentInfo:
     """Write a segment's datasets (as :meth:`SegmentBuilder.columns` makes them) as a new
-    sealed segment under ``directory``; its info."""
+    sealed segment under ``directory``; its info. ``samples``: see
+    :func:`~bowlrec.archive.segment_file.write_segment`."""
     from .segment_file import write_segment
 
     segment_id = new_segment_id()
     path = Path(directory) / f"{segment_id}.h5"
-    write_segment(path, segment_id, columns, provenance, durable=durable)
+    write_segment(path, segment_id, columns, provenance, durable=durable, samples=samples)
     index = {k: v for group in ("runs", "summary") for k, v in columns[group].items()}
     index["n_samples"] = np.diff(columns["trajectory"]["offsets"])
     run_ids = tuple(v.decode() for v in columns["runs"]["run_id"].tolist())

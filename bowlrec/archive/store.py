@@ -52,6 +52,7 @@ if TYPE_CHECKING:
     from bowlrec.sinks.hdf5_run import StoredRun
     from bowlrec.spec import Scene
 
+    from .group_commit import GroupCommitter
     from .segment import RunRecord, SegmentBuilder, SegmentInfo, SummaryRuns
 
 __all__ = [
@@ -279,12 +280,13 @@ class Archive:
 
     # -- writing ---------------------------------------------------------------------------------
 
-    def builder(self) -> SegmentBuilder:
-        """A new segment builder carrying this process's provenance."""
+    def builder(self, *, samples: str = "gzip") -> SegmentBuilder:
+        """A new segment builder carrying this process's provenance; ``samples``: the storage
+        filter of per-sample datasets, "gzip" or "none" (faster; compaction recompresses)."""
         from .provenance import environment
         from .segment import SegmentBuilder
 
-        return SegmentBuilder(environment())
+        return SegmentBuilder(environment(), samples=samples)
 
     def record(
         self,
@@ -427,11 +429,18 @@ class Archive:
         return AddResult(rid, info.path, True, run.trajectory)
 
     def simulate(
-        self, scene: Scene, *, ball_ref: str | None = None, method: str = "auto"
+        self,
+        scene: Scene,
+        *,
+        ball_ref: str | None = None,
+        method: str = "auto",
+        group: GroupCommitter | None = None,
     ) -> AddResult:
         """Simulate ``scene`` and store it, unless its run ID is archived already (then the
         stored trajectory is returned and nothing is simulated or written). A stored copy
-        found damaged is set aside and the scene simulated again."""
+        found damaged is set aside and the scene simulated again. ``group``: a
+        :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs
+        together with those of other threads (a server's concurrent requests)."""
         from bowlrec.core.solver import solve, use_closed_form
         from bowlrec.sinks.common import RunData
 
@@ -454,9 +463,12 @@ class Archive:
             if method != "auto"
             else ("closed_form" if use_closed_form(plan) else "integrator")
         )
-        return self.add(
-            RunData(scene, plan, traj, rid), wall_time_s=wall, ball_ref=ball_ref, solver=used
-        )
+        run = RunData(scene, plan, traj, rid)
+        if group is not None and traj.n_samples == 0:
+            record = self.record(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)
+            added, path = group.add(record)
+            return AddResult(rid, path, added, traj)
+        return self.add(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)
 
     def set_aside(self, run_id: str, segment_id: str, reason: str) -> None:
         """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it

@@ -333,9 +333,12 @@ def _events(result: Any, i: int) -> list[tuple[str, float, str, float, float, fl
 class _Store:
     """Collects a chunk's records; seals them as a segment (worker writes) or ships them."""
 
-    def __init__(self, archive: Archive | None, target: WriteTarget | None) -> None:
+    def __init__(
+        self, archive: Archive | None, target: WriteTarget | None, samples: str = "gzip"
+    ) -> None:
         self.archive = archive
         self.target = target
+        self.samples = samples
         self.records: list[RunRecord] = []
         self.builder: Any = None
         self.provenance: dict[str, Any] | None = None
@@ -352,7 +355,7 @@ class _Store:
         from bowlrec.archive import ArchiveWriteError
 
         start = time.perf_counter()
-        builder = self.archive.builder()
+        builder = self.archive.builder(samples=self.samples)
         for rec in self.records:
             builder.append(rec)
         try:
@@ -545,7 +548,7 @@ def _run_general(
         elif p.run_id is not None:
             first.setdefault(p.run_id, i)
     todo = list(first.values())
-    store = _Store(archive, task.target)
+    store = _Store(archive, task.target, ctx.job.samples)
     summary_only = [i for i in todo if _summary_only(prepared[i].plan)]
     recorded = [i for i in todo if i not in set(summary_only)]
     if summary_only:

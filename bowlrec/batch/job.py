@@ -28,7 +28,7 @@ import functools
 import json
 import math
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
@@ -39,6 +39,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
     from bowlrec.core.plan import Plan
+    from bowlrec.scene_input import BallLookup
     from bowlrec.spec import Scene
 
     from .chunks import JobContext
@@ -280,6 +281,11 @@ class JobSpec(_JobModel):
         "samples (options.record 'rate' unless the scene records 'steps' or 'rate'); scene: "
         "keep each scene's options.",
     )
+    samples: Literal["gzip", "none"] = Field(
+        default="gzip",
+        description="How recorded samples are stored: gzip (compact) or none (several times "
+        "faster to write, about 1.6x the bytes; `bowlrec runs compact` recompresses later).",
+    )
     formats: list[Literal["mcap", "rrd"]] = Field(
         default_factory=list,
         description="Replay files written per new run into the replay directory (needs "
@@ -480,23 +486,19 @@ def job_schema_text() -> str:
     return json.dumps(schema, indent=2, sort_keys=True) + "\n"
 
 
-#: a library lookup: "name" or "name@version" -> (ball spec mapping, "name@version")
-BallLookup = Callable[[str], tuple[dict[str, Any], str]]
-
-
 def library_lookup(balls: BallLibrary | None) -> BallLookup:
-    """A :data:`BallLookup` over an archive's ball library (JobError when missing)."""
+    """A :data:`~bowlrec.scene_input.BallLookup` over an archive's ball library that raises
+    JobError (a job naming a ball that does not exist is wrong as a whole)."""
+    from bowlrec.scene_input import SceneInputError
+    from bowlrec.scene_input import library_lookup as scene_lookup
+
+    inner = scene_lookup(balls)
 
     def lookup(ref: str) -> tuple[dict[str, Any], str]:
-        from bowlrec.archive import BallNotFoundError
-
-        if balls is None:
-            raise JobError(f"library ball {ref!r}: no archive (ball library) was given")
         try:
-            entry = balls.get(ref)
-        except (BallNotFoundError, ValueError) as err:
-            raise JobError(f"library ball {ref!r}: {err}") from err
-        return entry.ball.model_dump(mode="json"), entry.ref
+            return inner(ref)
+        except SceneInputError as err:
+            raise JobError(str(err).removeprefix("ball: ")) from err
 
     return lookup
 
@@ -553,9 +555,10 @@ def _read_scene_mapping(entry: str | dict[str, Any], base_dir: Path, what: str) 
 
 def _full_mapping(raw: dict[str, Any], what: str) -> tuple[bool, dict[str, Any]]:
     """Validate a scene mapping and return (bowler?, every field as JSON values)."""
+    from bowlrec.scene_input import is_bowler
     from bowlrec.spec import format_validation_error
 
-    bowler = raw.get("format") == "bowler"
+    bowler = is_bowler(raw)
     try:
         model = _model(bowler).model_validate(raw)
     except ValidationError as err:
@@ -568,12 +571,7 @@ def _base(job: JobSpec, base_dir: Path, lookup: BallLookup) -> _Base:
     bowler, data = _full_mapping(raw, "base")
     ref = None
     if job.ball is not None:
-        if bowler:
-            raise JobError(
-                "ball: library balls are physical specs; use them with a physical base scene "
-                "(a bowler scene describes its ball by its spec sheet and layout)"
-            )
-        data["ball"], ref = lookup(job.ball)
+        data, ref = _library_ball({**data, "ball": job.ball}, lookup)
     return _Base(bowler, data, ref)
 
 
@@ -606,7 +604,7 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
                 data = copy.deepcopy(base.data)
                 try:
                     apply_override(data, path, value)
-                    _library_ball(data, base.bowler, lookup)
+                    data, _ = _library_ball(data, lookup)
                 except JobError as err:
                     raise JobError(f"{where}: {err}") from err
                 try:
@@ -619,14 +617,15 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
                         ) from err
 
 
-def _library_ball(data: dict[str, Any], bowler: bool, lookup: BallLookup) -> str | None:
-    """Replace a library reference at ``ball`` by its spec; returns the reference used."""
-    if not isinstance(data.get("ball"), str):
-        return None
-    if bowler:
-        raise JobError("ball: library balls (name@version) need a physical base scene")
-    data["ball"], ref = lookup(data["ball"])
-    return ref
+def _library_ball(data: dict[str, Any], lookup: BallLookup) -> tuple[dict[str, Any], str | None]:
+    """The mapping with a library reference at ``ball`` replaced by its spec (a physical ball
+    in a physical scene, a spec sheet in a bowler scene) and the reference used."""
+    from bowlrec.scene_input import SceneInputError, with_library_ball
+
+    try:
+        return with_library_ball(data, lookup)
+    except SceneInputError as err:
+        raise JobError(str(err)) from err
 
 
 def _set_record(data: dict[str, Any], record: str) -> None:
@@ -640,20 +639,16 @@ def _set_record(data: dict[str, Any], record: str) -> None:
 def prepare_one(
     index: int, params: dict[str, Any], bowler: bool, data: dict[str, Any], ref: str | None
 ) -> PreparedRun:
-    """Validate, convert (bowler scenes), resolve and hash one scene mapping."""
+    """Validate, convert (bowler scenes: :func:`bowlrec.scene_input.parse_scene`), resolve and
+    hash one scene mapping (its library ball already substituted)."""
     from bowlrec.archive import run_id
-    from bowlrec.spec import Scene, format_validation_error
+    from bowlrec.scene_input import SceneInputError, parse_scene
 
     try:
-        model = _model(bowler).model_validate(data)
-    except ValidationError as err:
-        return PreparedRun(index, params, error=f"invalid scene: {format_validation_error(err)}")
-    try:
-        scene = model.to_scene() if bowler else model  # type: ignore[attr-defined]
-        assert isinstance(scene, Scene)
+        scene = parse_scene(data).scene
         plan = scene.resolve()
-    except ValidationError as err:
-        return PreparedRun(index, params, error=f"invalid scene: {format_validation_error(err)}")
+    except SceneInputError as err:
+        return PreparedRun(index, params, error=f"invalid scene: {err}")
     except (ValueError, ArithmeticError) as err:
         return PreparedRun(index, params, error=f"{type(err).__name__}: {err}")
     return PreparedRun(index, params, scene, plan, run_id(plan), ref)
@@ -766,6 +761,8 @@ def point_data(
 ) -> tuple[dict[str, Any], bool, dict[str, Any], str | None]:
     """(table parameters, bowler?, full scene mapping, library ball used) of one run."""
 
+    from bowlrec.scene_input import is_bowler
+
     def lookup(ref: str) -> tuple[dict[str, Any], str]:
         try:
             spec, used = ctx.balls[ref]
@@ -781,7 +778,7 @@ def point_data(
         params: dict[str, Any] = {"scene": label}
         what = f"sweep[{point.block}].scenes[{point.scene}]"
         data = _read_scene_mapping(entry, Path(ctx.base_dir), what)
-        bowler, ref = data.get("format") == "bowler", None
+        bowler, ref = is_bowler(data), None
     else:
         params = dict(point.overrides)
         data, bowler, ref = copy.deepcopy(ctx.base_data), ctx.base_bowler, ctx.base_ref
@@ -790,7 +787,8 @@ def point_data(
                 apply_override(data, path, value)
             except JobError as err:
                 raise JobError(f"sweep[{point.block}] point {point.index}: {err}") from err
-    ref = _library_ball(data, bowler, lookup) or ref
+    data, used = _library_ball(data, lookup)
+    ref = used or ref
     _set_record(data, ctx.job.record)
     return params, bowler, data, ref
 

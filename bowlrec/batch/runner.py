@@ -338,7 +338,7 @@ class _Orchestrator:
             keep = [i for i, rid in enumerate(runs.run_ids()) if rid not in present]
             return self.archive.seal(runs.select(keep), durable=durable) if keep else None
         present = self.archive.rows(r.run_id for r in res.records)
-        builder = self.archive.builder()
+        builder = self.archive.builder(samples=self.ctx.job.samples)
         for rec in res.records:
             if rec.run_id not in present:
                 builder.append(rec)
@@ -464,8 +464,12 @@ def _drive(
                 ranges.appendleft(span)
             else:
                 settle(fut, span)
+        # after a failed write the runs not reached are failures that say why; after a
+        # cancellation they are "cancelled"
+        error = None if result.error is None else f"not archived: {result.error}"
         for span in sorted(ranges):
-            orch.emit(span[0], _unrun(orch.ctx, *span, "cancelled", None))
+            status = "cancelled" if error is None else "failed"
+            orch.emit(span[0], _unrun(orch.ctx, *span, status, error))
     orch.report()
 
 

@@ -41,18 +41,21 @@ def fail(message: str, code: int = 2) -> NoReturn:
 
 
 def load_scene_or_exit(path: Path) -> Any:
-    from pydantic import ValidationError
+    """The file's physical scene (a bowler scene converted); exits when invalid."""
+    return parse_scene_or_exit(path).scene
 
-    from bowlrec.spec import format_validation_error, load_scene
+
+def parse_scene_or_exit(path: Path) -> Any:
+    """The file's scene parsed by :func:`bowlrec.scene_input.parse_scene_file` (library
+    references are resolved by the caller); exits with the field-named message when invalid."""
+    from bowlrec.scene_input import SceneInputError, parse_scene_file
 
     if not path.exists():
         fail(f"{path}: no such file")
     try:
-        return load_scene(path)
-    except ValidationError as err:
-        fail(f"{path}: invalid scene\n{format_validation_error(err)}")
-    except (ValueError, OSError) as err:
-        fail(f"{path}: {err}")
+        return parse_scene_file(path)
+    except SceneInputError as err:
+        fail(str(err))
 
 
 def open_archive(path: Path | None, *, create: bool = True) -> Archive:

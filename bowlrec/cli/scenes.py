@@ -17,6 +17,7 @@ from ._common import (
     fail,
     load_scene_or_exit,
     open_archive,
+    parse_scene_or_exit,
     summary_json,
     with_progress,
     with_status,
@@ -61,12 +62,14 @@ def simulate(
 
     The run ID is a content hash: simulating the same scene again reuses the stored run.
     """
+    from bowlrec.scene_input import ParsedScene
     from bowlrec.spec import Scene
 
-    scene_obj = load_scene_or_exit(scene) if scene is not None else Scene()
+    parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
+    scene_obj = parsed.scene
     needs_samples = wants_samples(out, mcap, rrd, connect, spawn, plot)
     # a bowler-language scene reports in bowlers' terms, which reads the samples
-    keep_samples = needs_samples or _is_bowler_file(scene)
+    keep_samples = needs_samples or parsed.bowler is not None
     if needs_samples and scene_obj.options.record == "summary":
         options = scene_obj.options.model_copy(update={"record": "steps"})
         scene_obj = scene_obj.model_copy(update={"options": options})
@@ -78,9 +81,8 @@ def simulate(
     ball_ref = None
     with archive_errors():
         if ball is not None:
-            entry = (store or open_archive(archive)).balls.get(ball)
-            scene_obj = _with_library_ball(scene, scene_obj, entry)
-            ball_ref = entry.ref
+            parsed = _with_library_ball(parsed, ball, store or open_archive(archive))
+            scene_obj, ball_ref = parsed.scene, parsed.ball_ref
         if store is not None:
             result = with_status(
                 "simulating (first run compiles kernels)",
@@ -103,7 +105,7 @@ def simulate(
         if out is not None:
             traj.save_npz(out)
         lines = write_outputs(run, mcap=mcap, rrd=rrd, connect=connect, spawn=spawn, plot=plot)
-    bowler = _bowler_report(scene, traj)
+    bowler = _bowler_report(parsed, traj)
     if as_json:
         payload = summary_json(traj.summary)
         payload.update(
@@ -124,47 +126,28 @@ def simulate(
         typer.echo(line)
 
 
-def _with_library_ball(path: Path | None, scene_obj: Any, entry: Any) -> Any:
-    """``scene_obj`` with the library ball: a physical ball replaces the physical scene's ball;
-    a spec sheet replaces a bowler scene's ball (then laid out by its layout and PAP)."""
-    from bowlrec.bowling.ball import BowlerBall
+def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
+    """The parsed scene with library ball ``ref`` in place of its ball: a physical ball in a
+    physical scene, a spec sheet in a bowler scene (laid out by its layout and PAP)."""
+    from bowlrec.scene_input import SceneInputError, parse_scene
 
-    if isinstance(entry.ball, BowlerBall):
-        if not _is_bowler_file(path):
-            fail(
-                f"library ball {entry.ref} is a spec sheet (bowlers' units): use it with a "
-                "bowler-language scene (format: bowler), which has the layout and PAP"
-            )
-        from bowlrec.bowling.scene import BowlerScene
-        from bowlrec.spec.loading import read_mapping
-
-        bs = BowlerScene.model_validate(read_mapping(path))  # type: ignore[arg-type]
-        return bs.model_copy(update={"ball": entry.ball}).to_scene()
-    return scene_obj.model_copy(update={"ball": entry.ball})
+    source = parsed.bowler if parsed.bowler is not None else parsed.scene
+    data = source.model_dump(mode="json")
+    if parsed.bowler is not None:
+        data["format"] = "bowler"
+    try:
+        return parse_scene({**data, "ball": ref}, store.balls)
+    except SceneInputError as err:
+        fail(f"--ball {ref}: {err}")
 
 
-def _is_bowler_file(path: Path | None) -> bool:
-    from bowlrec.spec.loading import read_mapping
-
-    if path is None:
-        return False
-    data = read_mapping(path)
-    return isinstance(data, dict) and data.get("format") == "bowler"
-
-
-def _bowler_report(path: Path | None, traj: Any) -> dict[str, Any] | None:
-    """The report in bowlers' terms for a bowler-language scene file with samples, else None."""
-    from bowlrec.spec.loading import read_mapping
-
-    if path is None or traj.n_samples == 0:
-        return None
-    data = read_mapping(path)
-    if not (isinstance(data, dict) and data.get("format") == "bowler"):
+def _bowler_report(parsed: Any, traj: Any) -> dict[str, Any] | None:
+    """The report in bowlers' terms for a bowler-language scene with samples, else None."""
+    if parsed.bowler is None or traj.n_samples == 0:
         return None
     from bowlrec.bowling.report import bowler_report
-    from bowlrec.bowling.scene import BowlerScene
 
-    bs = BowlerScene.model_validate(data)
+    bs = parsed.bowler
     return bowler_report(traj, bs.lane, bs.delivery.handedness).to_dict()
 
 

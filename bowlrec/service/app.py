@@ -116,8 +116,12 @@ class _State:
     """What the endpoints share: the archive, the jobs and per-file generation locks."""
 
     def __init__(self, archive: Archive, jobs: JobManager, token: str | None) -> None:
+        from bowlrec.archive.group_commit import GroupCommitter
+
         self.archive = archive
         self.jobs = jobs
+        #: seals the summary-only runs of concurrent POST /runs requests together
+        self.commits = GroupCommitter(archive)
         self.token = token
         self.cache_dir = archive.root / "cache"
         self._file_locks: dict[Path, threading.Lock] = {}
@@ -173,10 +177,12 @@ def submit_scene(
     """Simulate a scene (physical, or bowler-language with ``"format": "bowler"``) and archive
     it. Synchronous; idempotent: the same scene gives the same run ID, and a scene already
     archived returns 200 with ``added: false`` (201 when it was added). ``ball`` may be a
-    library reference ``"name"`` or ``"name@version"``."""
+    library reference ``"name"`` or ``"name@version"``. The response comes once the run is
+    sealed and indexed; summary-only runs of concurrent requests are sealed together in one
+    segment (group commit)."""
     try:
         parsed = parse_scene_spec(scene, state.archive.balls)
-        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref)
+        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref, group=state.commits)
     except (SpecError, ValueError) as err:  # ValueError: a scene that cannot be resolved
         raise _bad(422, str(err)) from None
     if result.trajectory is None:  # pragma: no cover - simulate always returns it
@@ -473,11 +479,13 @@ def create_app(
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         state.jobs.start()
+        state.commits.start()
         if warm_up:
             await run_in_threadpool(_warm_up)
         try:
             yield
         finally:
+            await run_in_threadpool(state.commits.close)
             await run_in_threadpool(state.jobs.stop)
 
     app = FastAPI(

@@ -7,16 +7,15 @@ models here describe everything else.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from bowlrec.core.trajectory import Summary
+from bowlrec.scene_input import ParsedScene
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
-    from bowlrec.spec import Scene
 
 __all__ = [
     "BallAddRequest",
@@ -208,60 +207,18 @@ class SpecError(ValueError):
     """An invalid scene or ball spec; the message names the offending fields (HTTP 422)."""
 
 
-@dataclass(frozen=True)
-class ParsedScene:
-    """A validated scene and the library ball it referenced (``name@version``), if any."""
-
-    scene: Scene
-    ball_ref: str | None
-
-
-def _library_ball(ref: str, balls: BallLibrary, bowler: bool) -> tuple[dict[str, Any], str]:
-    """The spec of library ball ``ref`` as a mapping, checked against the scene kind."""
-    from bowlrec.archive import BallNotFoundError
-
-    try:
-        entry = balls.get(ref)
-    except (BallNotFoundError, ValueError) as err:
-        raise SpecError(f"ball: {err}") from None
-    is_sheet = "weight_lb" in entry.ball.model_dump()
-    if is_sheet != bowler:
-        kind = "a bowler spec sheet" if is_sheet else "a physical ball"
-        scene = "a bowler-language" if bowler else "a physical"
-        raise SpecError(
-            f"ball: library ball {entry.ref} is {kind}; it cannot be used in {scene} scene"
-        )
-    return entry.ball.model_dump(mode="json"), entry.ref
-
-
 def parse_scene_spec(data: Any, balls: BallLibrary | None = None) -> ParsedScene:
-    """Validate a physical scene or, with ``"format": "bowler"``, a bowler-language scene.
+    """Validate a physical scene or, with ``"format": "bowler"``, a bowler-language scene
+    (:func:`bowlrec.scene_input.parse_scene`: a string ``ball`` is a library reference
+    resolved through ``balls``). Raises :class:`SpecError` with field-named lines."""
+    from bowlrec.scene_input import SceneInputError, parse_scene
 
-    A string ``ball`` is a library reference (``name`` or ``name@version``) resolved through
-    ``balls``. Raises :class:`SpecError` with field-named lines
-    (:func:`bowlrec.spec.format_validation_error`).
-    """
-    from bowlrec.spec import Scene, format_validation_error
-
-    if not isinstance(data, dict):
-        raise SpecError(f"scene: expected a JSON object, got {type(data).__name__}")
-    bowler = data.get("format") == "bowler"
-    ball_ref = None
-    if isinstance(data.get("ball"), str):
-        if balls is None:
-            raise SpecError("ball: library references are not available here")
-        spec, ball_ref = _library_ball(data["ball"], balls, bowler)
-        data = {**data, "ball": spec}
+    if balls is None and isinstance(data, dict) and isinstance(data.get("ball"), str):
+        raise SpecError("ball: library references are not available here")
     try:
-        if bowler:
-            from bowlrec.bowling.scene import BowlerScene
-
-            return ParsedScene(BowlerScene.model_validate(data).to_scene(), ball_ref)
-        return ParsedScene(Scene.model_validate(data), ball_ref)
-    except ValidationError as err:
-        raise SpecError(format_validation_error(err)) from None
-    except ValueError as err:  # a bowler scene that cannot be placed (illegal ball, ...)
-        raise SpecError(f"scene: {err}") from None
+        return parse_scene(data, balls)
+    except SceneInputError as err:
+        raise SpecError(str(err)) from None
 
 
 def parse_ball_spec(data: Any) -> Any:

@@ -33,8 +33,10 @@ def load_scene(path: str | Path) -> Scene:
     A bowler-language file (top-level ``"format": "bowler"``, see
     :class:`bowlrec.bowling.scene.BowlerScene`) is resolved to the physical scene.
     """
+    from bowlrec.scene_input import is_bowler
+
     data = read_mapping(path)
-    if isinstance(data, dict) and data.get("format") == "bowler":
+    if is_bowler(data):
         from bowlrec.bowling.scene import BowlerScene
 
         return BowlerScene.model_validate(data).to_scene()

@@ -1,0 +1,493 @@
+"""The pipeline against the kernel, side by side in one run: batch with and without the archive,
+``simulate_many``, the service, recorded trajectories and a bowler-language job.
+
+    python -m benchmarks.pipeline [--quick] [--out benchmarks/results]
+
+The jobs are committed in ``benchmarks/jobs/`` so everyone measures the same runs:
+
+- ``case16-summary.json``: 200,000 case-16-like deliveries (non-scalar inertia, 0.7 mm offset)
+  at rtol 2e-4, summary only, a random sweep over speed, spin and take-off angle;
+- ``bowler-lhs.json``: the house-shot bowler scene at its default rtol, a Latin hypercube of
+  20,000 points over speed, rev rate and axis rotation, summary only;
+- ``case16-recorded.json``: 2,000 case-16-like deliveries recorded at 1 ms, stored with their
+  samples.
+
+Measured (2 workers / 2 threads everywhere):
+
+- kernel: the job's deliveries packed in memory and run by the compiled many-delivery kernel
+  (``bowlrec.core.batch.run_batch``, 2 numba threads); nothing prepared, stored or tabled in
+  the timing. Measured before and after the pipeline rows; the table quotes both and the ratios
+  use their mean, since the machine is shared;
+- batch: ``run_job`` with 2 local worker processes, into a fresh archive and with no archive;
+  the steady-state rate is taken from the progress reports between 10 % and 90 % of the runs
+  (worker start-up excluded), the whole-job rate includes it;
+- ``simulate_many(job, workers=2)``, the Python API (an Arrow table back);
+- the CLI end to end: ``bowlrec batch JOB --no-archive --out t.parquet`` (process start-up
+  included);
+- per-run costs in one process (prepare, kernel, segment, index registration) and the
+  throughput ceiling they impose on 2 cores;
+- the service (``bowlrec serve --job-workers 2``): ``POST /jobs`` of 100,000 runs of the
+  case-16 job (``--quick``: 20,000), and
+  16 concurrent clients posting new summary-only scenes against ``GET /health`` of the same app
+  with the same load generator (httpx, one thread per client);
+- recorded trajectories: runs/s on 2 workers, bytes per run, and the fsynced sequential write
+  rate of the same disk measured in the same run.
+
+Writes ``pipeline.json`` and ``pipeline.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+JOBS = ROOT / "benchmarks" / "jobs"
+
+
+def _job(name: str, n: int | None = None) -> Any:
+    from bowlrec.batch import JobSpec, load_job
+
+    job = load_job(JOBS / name)
+    if n is None:
+        return job
+    data = job.model_dump(mode="json", by_alias=True)
+    data["sweep"]["n"] = n
+    return JobSpec.model_validate(data)
+
+
+def _packed(job: Any, n: int) -> Any:
+    """The first ``n`` deliveries of a job, packed for the kernel (prepared untimed)."""
+    from bowlrec.batch import job_context
+    from bowlrec.batch.chunks import prepare_point
+    from bowlrec.batch.fastprep import FastSweep
+    from bowlrec.core.batch import pack_plans
+    from bowlrec.spec import Scene
+
+    ctx = job_context(job, base_dir=JOBS)
+    if ctx.fast_paths is not None:
+        import numpy as np
+
+        fast = FastSweep(Scene.model_validate(ctx.base_data), ctx.fast_paths)
+        return fast.prepare(np.arange(n), job.columns(0, n, ctx.fast_paths)).packed
+    plans = [prepare_point(ctx, p).plan for p in job.points(0, n)]
+    return pack_plans([p for p in plans if p is not None])
+
+
+def kernel_rate(packed: Any, repeats: int = 3) -> float:
+    """Deliveries/s of the many-delivery kernel on 2 numba threads (median of ``repeats``)."""
+    import numba
+
+    from bowlrec.core.batch import run_batch, take
+
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    import numpy as np
+
+    run_batch(take(packed, np.arange(min(100, packed.n))), parallel=True)  # warm
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        run_batch(packed, parallel=True)
+        times.append(time.perf_counter() - t0)
+    return packed.n / statistics.median(times)
+
+
+class _Steady:
+    """Progress callback: the rate between 10 % and 90 % of the runs."""
+
+    def __init__(self) -> None:
+        self.points: list[tuple[float, int]] = []
+
+    def __call__(self, p: Any) -> None:
+        self.points.append((time.perf_counter(), p.done))
+
+    def rate(self, total: int) -> float:
+        lo = [pt for pt in self.points if pt[1] >= 0.1 * total]
+        hi = [pt for pt in self.points if pt[1] >= 0.9 * total]
+        if not lo or not hi or hi[0][0] <= lo[0][0]:
+            return float("nan")
+        return (hi[0][1] - lo[0][1]) / (hi[0][0] - lo[0][0])
+
+
+def batch_row(label: str, job: Any, archive: Any, total: int) -> dict[str, Any]:
+    from bowlrec.batch import run_job
+
+    steady = _Steady()
+    t0 = time.perf_counter()
+    res = run_job(job, archive, base_dir=JOBS, workers=2, progress=steady)
+    wall = time.perf_counter() - t0
+    c = res.counts
+    if c["ok"] + c["archived"] + c["failed"] != total or res.error:
+        raise RuntimeError(f"{label}: {c} {res.error}")
+    return {
+        "path": label,
+        "runs": total,
+        "wall_s": wall,
+        "whole_job_per_s": total / wall,
+        "steady_per_s": steady.rate(total),
+        "kernel_s_per_run": res.simulate_s / max(1, res.simulated),
+        "write_s_per_run": res.write_s / max(1, res.simulated),
+    }
+
+
+def many_row(job: Any, total: int) -> dict[str, Any]:
+    from bowlrec import simulate_many
+
+    steady = _Steady()
+    t0 = time.perf_counter()
+    table = simulate_many(job, workers=2, progress=steady)
+    wall = time.perf_counter() - t0
+    assert table.num_rows == total
+    return {
+        "path": "simulate_many(job, workers=2) -> Arrow",
+        "runs": total,
+        "wall_s": wall,
+        "whole_job_per_s": total / wall,
+        "steady_per_s": steady.rate(total),
+    }
+
+
+def cli_row(job_path: Path, tmp: Path, total: int) -> dict[str, Any]:
+    out = tmp / "cli.parquet"
+    cmd = [sys.executable, "-m", "bowlrec.cli", "batch", str(job_path), "--no-archive"]
+    cmd += ["--out", str(out), "--workers", "2", "--quiet"]
+    t0 = time.perf_counter()
+    subprocess.run(cmd, check=True, cwd=ROOT)
+    wall = time.perf_counter() - t0
+    return {
+        "path": "bowlrec batch JOB --no-archive --out t.parquet (end to end)",
+        "runs": total,
+        "wall_s": wall,
+        "whole_job_per_s": total / wall,
+        "steady_per_s": float("nan"),
+    }
+
+
+def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
+    """µs per run of each stage in one process (a chunk of ``n`` runs, after a warm chunk)."""
+    from bowlrec.archive import Archive
+    from bowlrec.batch import job_context
+    from bowlrec.batch.chunks import ChunkTask, WriteTarget, run_chunk
+    from bowlrec.batch.fastprep import FastSweep
+    from bowlrec.spec import Scene
+
+    archive = Archive(tmp / "costs")
+    ctx = job_context(job, base_dir=JOBS)
+    assert ctx.fast_paths is not None
+    fast = FastSweep(Scene.model_validate(ctx.base_data), ctx.fast_paths)
+    target = WriteTarget(str(archive.root), "yes", durable=True)
+    run_chunk(ChunkTask(ctx, 0, 64, target))  # warm: kernels, caches
+    import numpy as np
+
+    t0 = time.perf_counter()
+    fast.prepare(np.arange(n), job.columns(1000, 1000 + n, ctx.fast_paths))
+    prepare = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    table_only = run_chunk(ChunkTask(ctx, 1000, 1000 + n, None))
+    no_archive = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    stored = run_chunk(ChunkTask(ctx, 6000, 6000 + n, target))
+    with_archive = time.perf_counter() - t0
+    assert stored.segment is not None
+    t0 = time.perf_counter()
+    archive.register([stored.segment])
+    register = time.perf_counter() - t0
+    us = 1e6 / n
+    kernel = (table_only.simulate_s + stored.simulate_s) / 2 * us
+    return {
+        "prepare_us": prepare * us,
+        "kernel_us": kernel,
+        "chunk_no_archive_us": no_archive * us,
+        "segment_us": stored.write_s * us,
+        "chunk_with_archive_us": with_archive * us,
+        "index_us": register * us,
+    }
+
+
+def disk_rate(tmp: Path, mb: int = 128) -> float:
+    """Sequential write rate (MB/s) of ``tmp``'s disk, fsynced at the end."""
+    block = os.urandom(1 << 20)
+    path = tmp / "disk-probe"
+    t0 = time.perf_counter()
+    with open(path, "wb") as fh:
+        for _ in range(mb):
+            fh.write(block)
+        fh.flush()
+        os.fsync(fh.fileno())
+    wall = time.perf_counter() - t0
+    path.unlink()
+    return mb / wall
+
+
+def recorded_row(tmp: Path, n: int, samples: str) -> dict[str, Any]:
+    """The recorded job with its samples stored by filter ``samples`` (gzip or none)."""
+    from bowlrec.archive import Archive
+    from bowlrec.batch import JobSpec
+
+    archive = Archive(tmp / f"recorded-{samples}")
+    rate_disk = disk_rate(tmp)
+    data = _job("case16-recorded.json", n).model_dump(mode="json", by_alias=True)
+    data["samples"] = samples
+    job = JobSpec.model_validate(data)
+    row = batch_row(f"batch, recorded at 1 ms, samples {samples}", job, archive, n)
+    seg_bytes = sum(p.stat().st_size for p in archive.segments_dir.glob("*.h5"))
+    bytes_per_run = seg_bytes / n
+    row.update(
+        samples=samples,
+        bytes_per_run=bytes_per_run,
+        disk_mb_per_s=rate_disk,
+        disk_runs_per_s=rate_disk * 1e6 / bytes_per_run,
+        samples_per_run=float(
+            statistics.mean(r["n_samples"] for r in archive.list_runs(limit=200))
+        ),
+    )
+    row["pct_of_disk"] = 100 * row["steady_per_s"] / row["disk_runs_per_s"]
+    return row
+
+
+def service_rows(tmp: Path, n_job: int, clients: int, per_client: int) -> dict[str, Any]:
+    import httpx
+
+    from .service import server
+
+    job = _job("case16-summary.json", n_job).model_dump(mode="json", by_alias=True)
+    out: dict[str, Any] = {}
+    with server(tmp / "service", "--job-workers", "2") as url:
+        with httpx.Client(base_url=url, timeout=600) as c:
+            t0 = time.perf_counter()
+            r = c.post("/jobs", json=job)
+            r.raise_for_status()
+            job_id = r.json()["job_id"]
+            while (status := c.get(f"/jobs/{job_id}").json())["status"] in ("queued", "running"):
+                time.sleep(0.1)
+            wall = time.perf_counter() - t0
+        if status["status"] != "done" or status["done"] != n_job:
+            raise RuntimeError(f"service job ended {status}")
+        out["jobs"] = {"runs": n_job, "wall_s": wall, "runs_per_s": n_job / wall}
+        out["runs"] = _load(url, clients, per_client, new_scene=True)
+        out["health"] = _load(url, clients, per_client, new_scene=False)
+    return out
+
+
+def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str, Any]:
+    """``clients`` threads, each with its own httpx client, ``per_client`` requests each."""
+    import threading
+
+    import httpx
+
+    from .service import scene
+
+    barrier = threading.Barrier(clients + 1)
+    errors: list[str] = []
+    base = int(time.time() * 1000) % 1_000_000 * 1000
+
+    def work(k: int) -> None:
+        with httpx.Client(base_url=url, timeout=120) as c:
+            barrier.wait()
+            for i in range(per_client):
+                if new_scene:
+                    r = c.post("/runs", json=scene(base + k * per_client + i, "load"))
+                    ok = r.status_code == 201
+                else:
+                    r = c.get("/health")
+                    ok = r.status_code == 200
+                if not ok:
+                    errors.append(f"{r.status_code} {r.text[:200]}")
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(clients)]
+    for t in threads:
+        t.start()
+    barrier.wait()
+    t0 = time.perf_counter()
+    for t in threads:
+        t.join()
+    wall = time.perf_counter() - t0
+    if errors:
+        raise RuntimeError(f"{len(errors)} failed requests, e.g. {errors[0]}")
+    total = clients * per_client
+    return {"requests": total, "wall_s": wall, "per_s": total / wall}
+
+
+def measure(quick: bool) -> dict[str, Any]:
+    from bowlrec.archive import Archive
+
+    n = 20_000 if quick else 200_000
+    n_bowler = 2_000 if quick else 20_000
+    n_service = 20_000 if quick else 100_000
+    load_before = os.getloadavg()
+    job = _job("case16-summary.json", n)
+    packed = _packed(job, min(n, 100_000))
+    with tempfile.TemporaryDirectory(dir=ROOT) as tmp_name:
+        tmp = Path(tmp_name)
+        kernel_before = kernel_rate(packed)
+        rows = [
+            batch_row("batch --archive", job, Archive(tmp / "a"), n),
+            batch_row("batch --no-archive", job, None, n),
+            many_row(job, n),
+        ]
+        job_file = tmp / "case16.json"
+        job_file.write_text(json.dumps(job.model_dump(mode="json", by_alias=True)))
+        rows.append(cli_row(job_file, tmp, n))
+        kernel_after = kernel_rate(packed)
+        costs = per_run_costs(job, tmp)
+        bowler_job = _job("bowler-lhs.json", n_bowler)
+        bowler_kernel = kernel_rate(_packed(bowler_job, min(n_bowler, 4000)))
+        bowler = batch_row("bowler LHS, batch --archive", bowler_job, Archive(tmp / "b"), n_bowler)
+        bowler["kernel_per_s"] = bowler_kernel
+        recorded = [recorded_row(tmp, 400 if quick else 2000, f) for f in ("gzip", "none")]
+        service = service_rows(tmp, n_service, clients=16, per_client=20 if quick else 40)
+    kernel = (kernel_before + kernel_after) / 2
+    for r in rows:
+        r["pct_of_kernel"] = 100 * r["steady_per_s"] / kernel
+        r["pct_of_kernel_whole"] = 100 * r["whole_job_per_s"] / kernel
+    batch_rate = rows[0]["steady_per_s"]
+    service["jobs"]["pct_of_batch"] = 100 * service["jobs"]["runs_per_s"] / batch_rate
+    service["runs"]["pct_of_health"] = 100 * service["runs"]["per_s"] / service["health"]["per_s"]
+    core_us = costs["kernel_us"]
+    overhead = costs["chunk_with_archive_us"] - core_us + costs["index_us"]
+    costs["ceiling_pct_archive"] = 100 * core_us / (core_us + overhead)
+    costs["ceiling_pct_no_archive"] = 100 * core_us / costs["chunk_no_archive_us"]
+    return {
+        "machine": {
+            "platform": platform.platform(),
+            "python": sys.version.split()[0],
+            "cpu_count": os.cpu_count(),
+            "loadavg_before": load_before,
+            "loadavg_after": os.getloadavg(),
+        },
+        "quick": quick,
+        "runs": n,
+        "kernel_per_s": {"before": kernel_before, "after": kernel_after, "mean": kernel},
+        "rows": rows,
+        "costs_us_per_run": costs,
+        "bowler": bowler,
+        "recorded": recorded,
+        "service": service,
+    }
+
+
+def _f(x: float, digits: int = 0) -> str:
+    return "n/a" if x != x else f"{x:,.{digits}f}"
+
+
+def markdown(d: dict[str, Any]) -> str:
+    m = d["machine"]
+    k = d["kernel_per_s"]
+    lines = [
+        "# Pipeline throughput against the kernel",
+        "",
+        f"`python -m benchmarks.pipeline{' --quick' if d['quick'] else ''}` on {m['cpu_count']} "
+        f"cores, Python {m['python']}; load average {m['loadavg_before'][0]:.2f} before, "
+        f"{m['loadavg_after'][0]:.2f} after (a shared machine). Job: "
+        f"`benchmarks/jobs/case16-summary.json`, {d['runs']:,} case-16-like deliveries at rtol "
+        "2e-4, summary only.",
+        "",
+        f"Kernel (`run_batch`, 2 numba threads, inputs packed in memory): {_f(k['before'])} "
+        f"deliveries/s before the pipeline rows, {_f(k['after'])} after; ratios below use the "
+        f"mean, {_f(k['mean'])}.",
+        "",
+        "| path | runs | steady deliveries/s | % of kernel | whole job /s | % of kernel (whole) |",
+        "|---|---:|---:|---:|---:|---:|",
+    ]
+    for r in d["rows"]:
+        lines.append(
+            f"| {r['path']} | {r['runs']:,} | {_f(r['steady_per_s'])} | "
+            f"{_f(r['pct_of_kernel'], 1)} | {_f(r['whole_job_per_s'])} | "
+            f"{_f(r['pct_of_kernel_whole'], 1)} |"
+        )
+    c = d["costs_us_per_run"]
+    lines += [
+        "",
+        "Steady: between 10 % and 90 % of the runs (worker start-up excluded); whole job: "
+        "wall time of the call (start-up of the workers and, for the CLI, of the process "
+        "included).",
+        "",
+        "## Per-run costs (one process, a chunk of 4,096 runs)",
+        "",
+        "| stage | µs per run |",
+        "|---|---:|",
+        f"| prepare (fast delivery-sweep path: kernel inputs, run ID, scene JSON) | "
+        f"{c['prepare_us']:.1f} |",
+        f"| kernel (one thread) | {c['kernel_us']:.1f} |",
+        f"| whole chunk, no archive (prepare, kernel, summary, table) | "
+        f"{c['chunk_no_archive_us']:.1f} |",
+        f"| segment (columns, digests, HDF5 write with gzip, fsync) | {c['segment_us']:.1f} |",
+        f"| whole chunk with archive | {c['chunk_with_archive_us']:.1f} |",
+        f"| index registration (in the parent, SQLite) | {c['index_us']:.1f} |",
+        "",
+        f"On 2 cores every stage shares the same CPU: the measured costs cap the batch at "
+        f"{c['ceiling_pct_archive']:.0f} % of the kernel with the archive and "
+        f"{c['ceiling_pct_no_archive']:.0f} % without.",
+        "",
+    ]
+    b = d["bowler"]
+    lines += [
+        "## Bowler-language job",
+        "",
+        f"`benchmarks/jobs/bowler-lhs.json` ({b['runs']:,} runs, default rtol): batch with the "
+        f"archive {_f(b['steady_per_s'])} deliveries/s steady ({_f(b['whole_job_per_s'])} whole "
+        f"job), kernel {_f(b['kernel_per_s'])}/s on the same deliveries. Bowler scenes are "
+        "validated and converted one by one in the workers (the general path).",
+        "",
+    ]
+    rec = d["recorded"]
+    lines += [
+        "## Recorded trajectories",
+        "",
+        f"`benchmarks/jobs/case16-recorded.json` (samples every 1 ms, "
+        f"~{rec[0]['samples_per_run']:.0f} samples per run, every sample quantity stored), "
+        "2 workers; the disk rate is a sequential write of 128 MB fsynced, measured on the "
+        "same disk just before each row.",
+        "",
+        "| samples filter (job `samples`) | runs | steady runs/s | whole job /s | bytes/run "
+        "| disk MB/s | disk-bound runs/s | % of disk-bound |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for r in rec:
+        lines.append(
+            f"| {r['samples']} | {r['runs']:,} | {_f(r['steady_per_s'])} | "
+            f"{_f(r['whole_job_per_s'])} | {_f(r['bytes_per_run'])} | {_f(r['disk_mb_per_s'])} "
+            f"| {_f(r['disk_runs_per_s'])} | {_f(r['pct_of_disk'], 1)} |"
+        )
+    lines += [""]
+    s = d["service"]
+    lines += [
+        "## Service",
+        "",
+        f"`POST /jobs` of {s['jobs']['runs']:,} runs of the case-16 job (`bowlrec serve "
+        f"--job-workers 2`): {_f(s['jobs']['runs_per_s'])} runs/s, "
+        f"{_f(s['jobs']['pct_of_batch'], 1)} % "
+        "of the batch's steady rate with the archive.",
+        "",
+        f"16 concurrent clients (httpx, one thread and one connection each, "
+        f"{s['runs']['requests']} requests): `POST /runs` of new summary-only scenes "
+        f"{_f(s['runs']['per_s'])} requests/s; `GET /health` of the same app "
+        f"{_f(s['health']['per_s'])} requests/s; ratio {_f(s['runs']['pct_of_health'], 1)} %.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="20,000 runs instead of 200,000")
+    parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    args = parser.parse_args()
+    data = measure(args.quick)
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "pipeline.json").write_text(json.dumps(data, indent=2) + "\n")
+    (args.out / "pipeline.md").write_text(markdown(data))
+    print(markdown(data))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,126 @@
+"""Group commit: many threads each add one run; one thread seals them together.
+
+A server that archives runs one request at a time would write, fsync and register a one-run
+segment per request. :class:`GroupCommitter` lets each request thread hand its finished run
+over and wait: a committer thread takes every run waiting at that moment, seals them as one
+segment and registers it in one index transaction, then wakes their threads. A lone request
+waits for one commit (no timer, no batch to fill); under load, the runs that arrive during a
+commit go together into the next, so the cost of a commit is shared.
+
+A run is reported archived only after its segment is sealed (fsynced) and registered, as with
+:meth:`~bowlrec.archive.Archive.add`.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .segment import RunRecord
+    from .store import Archive
+
+__all__ = ["GroupCommitter"]
+
+
+@dataclass
+class _Waiter:
+    record: RunRecord
+    done: threading.Event = field(default_factory=threading.Event)
+    added: bool = False
+    path: Path | None = None
+    error: BaseException | None = None
+
+
+class GroupCommitter:
+    """Seals runs added from many threads in shared segments (see the module docs).
+
+    ``max_runs``: runs per segment at most; ``durable``: fsync each segment. Start with
+    :meth:`start`, stop with :meth:`close` (runs already handed over are committed first).
+    """
+
+    def __init__(self, archive: Archive, *, max_runs: int = 1000, durable: bool = True) -> None:
+        self.archive = archive
+        self.max_runs = max_runs
+        self.durable = durable
+        self._cond = threading.Condition()
+        self._pending: list[_Waiter] = []
+        self._closed = False
+        self._thread: threading.Thread | None = None
+        #: segments committed and runs in them (for monitoring and tests)
+        self.commits = 0
+        self.committed_runs = 0
+
+    def start(self) -> GroupCommitter:
+        self._thread = threading.Thread(target=self._loop, name="bowlrec-commit", daemon=True)
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+
+    def add(self, record: RunRecord) -> tuple[bool, Path]:
+        """Hand a finished run over and wait until it is archived: (added, segment path).
+        ``added`` is False when the run ID was archived already (by another request, or
+        before). Raises what the write raised (ArchiveWriteError on a full disk)."""
+        waiter = _Waiter(record)
+        with self._cond:
+            if self._closed:
+                raise RuntimeError("the group committer is closed")
+            self._pending.append(waiter)
+            self._cond.notify()
+        waiter.done.wait()
+        if waiter.error is not None:
+            raise waiter.error
+        assert waiter.path is not None
+        return waiter.added, waiter.path
+
+    def _loop(self) -> None:
+        while True:
+            with self._cond:
+                while not self._pending and not self._closed:
+                    self._cond.wait()
+                if not self._pending and self._closed:
+                    return
+                batch = self._pending[: self.max_runs]
+                del self._pending[: self.max_runs]
+            self._commit(batch, _finish)
+
+    def _commit(self, batch: list[_Waiter], finish: Callable[[list[_Waiter]], None]) -> None:
+        """Seal and register the batch's runs (those not archived yet) as one segment."""
+        archive = self.archive
+        try:
+            found = archive.rows(w.record.run_id for w in batch)
+            builder = archive.builder()
+            fresh = [w for w in batch if w.record.run_id not in found]
+            added = [w for w in fresh if builder.append(w.record)]
+            info = None
+            if len(builder):
+                info = archive.seal(builder, durable=self.durable)
+                archive.register([info])
+                self.commits += 1
+                self.committed_runs += len(builder)
+            mine = {id(w) for w in added}
+            for w in batch:
+                located = archive.locate(w.record.run_id)
+                w.path = located[2] if located is not None else None
+                w.added = id(w) in mine and info is not None and w.path == info.path
+                if w.path is None:
+                    w.error = RuntimeError(f"run {w.record.run_id} was not archived")
+        except BaseException as err:  # the write failed: every waiter of this batch learns it
+            for w in batch:
+                w.error = err
+        finish(batch)
+
+
+def _finish(batch: list[_Waiter]) -> None:
+    for w in batch:
+        w.done.set()
