@@ -22,11 +22,12 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+import pydantic_core
 
 if TYPE_CHECKING:
     from bowlrec.core.batch import PackedPlans
@@ -50,12 +51,15 @@ _MARK = "\x00M{}\x00"
 class _Template:
     """JSON text with placeholders: literal pieces and, between them, which value goes there."""
 
-    def __init__(self, text: str, n: int, quoted: bool) -> None:
-        """``text`` holds the placeholder strings 0..n-1 once each; ``quoted``: a value
-        replaces the string with its quotes (a number goes there), else only its content."""
+    def __init__(
+        self, text: str, n: int, quoted: bool, quote: Callable[[str], str] = json.dumps
+    ) -> None:
+        """``text`` holds the placeholder strings 0..n-1 once each, as ``quote`` writes them;
+        ``quoted``: a value replaces the string with its quotes (a number goes there), else
+        only its content."""
         marks = []
         for k in range(n):
-            mark = json.dumps(_MARK.format(k))
+            mark = quote(_MARK.format(k))
             mark = mark if quoted else mark[1:-1]
             marks.append((text.index(mark), k, mark))
         marks.sort()
@@ -78,7 +82,8 @@ class _Template:
 @dataclass(frozen=True)
 class FastChunk:
     """Prepared runs ``index`` of a chunk: kernel inputs, run IDs, scene JSON and the swept
-    values (``params``: path -> float64 array)."""
+    values as given (``params``: path -> float64 array, NaN where a block does not sweep the
+    path)."""
 
     index: np.ndarray
     params: dict[str, np.ndarray]
@@ -127,14 +132,17 @@ class FastSweep:
         self._id_prefix = hashlib.sha256(template.pieces[0].encode())
         self._id_rest = [p.encode() for p in template.pieces[1:]]
         self._id_order = template.order
-        # scene JSON: the base scene with the swept fields as fields
+        # scene JSON: the base scene with the swept fields as fields, serialized as
+        # Scene.model_dump_json() writes it (pydantic's own float text), so a run stores the
+        # same bytes whichever path prepared it
         data = base_scene.model_dump(mode="json")
         for k, path in enumerate(self.paths):
             apply_override(data, path, _MARK.format(k))
         self._scene_template = _Template(
-            json.dumps(data, separators=(",", ":"), ensure_ascii=False),
+            pydantic_core.to_json(data).decode(),
             len(self.paths),
             quoted=True,
+            quote=lambda mark: pydantic_core.to_json(mark).decode(),
         )
 
     def _run_id(self, values: list[float]) -> str:
@@ -159,13 +167,11 @@ class FastSweep:
         from bowlrec.core.batch import PackedPlans
 
         n = int(index.shape[0])
-        params = {}
-        for p in self.paths:
-            col = np.asarray(columns[p], dtype=np.float64)
+        given = {p: np.asarray(columns[p], dtype=np.float64) for p in self.paths}
+        params = {}  # with the base's value where a block does not sweep the path
+        for p, col in given.items():
             missing = np.isnan(col)
-            if missing.any():
-                col = np.where(missing, self._base_value(p), col)
-            params[p] = col
+            params[p] = np.where(missing, self._base_value(p), col) if missing.any() else col
         speed, angle = params.get("delivery.speed_mps"), params.get("delivery.takeoff_angle_deg")
         omega = np.empty((n, 3))
         omega[:] = self.omega
@@ -206,8 +212,11 @@ class FastSweep:
         run_ids = [run_id(row) for row in np.concatenate([velocity, omega], axis=1).tolist()]
         fill = self._scene_template.fill
         lists = [params[p].tolist() for p in self.paths]
-        scene_json = [fill([repr(v) for v in vals]).encode() for vals in zip(*lists, strict=True)]
-        return FastChunk(index, params, packed, run_ids, scene_json, velocity, omega)
+        text = pydantic_core.to_json
+        scene_json = [
+            fill([text(v).decode() for v in vals]).encode() for vals in zip(*lists, strict=True)
+        ]
+        return FastChunk(index, given, packed, run_ids, scene_json, velocity, omega)
 
     def _base_value(self, path: str) -> float:
         if path == "delivery.speed_mps":
