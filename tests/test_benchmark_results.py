@@ -66,3 +66,17 @@ def test_archive_format_doc_shows_the_committed_archive_targets() -> None:
         assert target["met"] == (target["measured"] <= limit), target["key"]
         row = next(r for r in table.splitlines() if r.startswith(f"| {target['what']} |"))
         assert row.rstrip(" |").endswith("yes") == target["met"], row
+
+
+def test_pipeline_doc_and_readme_show_the_committed_pipeline_run() -> None:
+    """docs/pipeline.md's targets and the README's headline are the committed benchmark's,
+    from its full-size run, and each 'met' follows from the measured number and its limit."""
+    doc = json.loads((RESULTS / "pipeline.json").read_text())
+    assert not doc["quick"] and doc["runs"] >= 200_000
+    table = _targets_table((RESULTS / "pipeline.md").read_text())
+    assert read_block(ROOT / "docs" / "pipeline.md", "pipeline-targets") == table
+    assert read_block(ROOT / "README.md", "pipeline-headline") == doc["headline"]
+    for target in doc["targets"]:
+        assert target["met"] == (target["measured"] >= target["limit"]), target["key"]
+        row = next(r for r in table.splitlines() if r.startswith(f"| {target['what']} |"))
+        assert row.rstrip(" |").endswith("yes") == target["met"], row

@@ -376,7 +376,8 @@ def _run_fast(
 
     fast = _fast(ctx)
     assert ctx.fast_paths is not None
-    chunk = fast.prepare(index, ctx.job.columns(task.start, task.stop, ctx.fast_paths))
+    columns = ctx.job.columns(task.start, task.stop, ctx.fast_paths)
+    chunk = fast.prepare(index, columns, scenes=task.target is not None)
     table = ChunkTable.empty(index, dict(chunk.params))
     table.run_id = list(chunk.run_ids)
     result = ChunkResult(task.start, task.stop, table)

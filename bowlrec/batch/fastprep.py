@@ -161,9 +161,12 @@ class FastSweep:
         """True when a job with these properties can be prepared by this class."""
         return not bowler and not has_scenes and bool(paths) and set(paths) <= set(FAST_PATHS)
 
-    def prepare(self, index: np.ndarray, columns: dict[str, np.ndarray]) -> FastChunk:
+    def prepare(
+        self, index: np.ndarray, columns: dict[str, np.ndarray], *, scenes: bool = True
+    ) -> FastChunk:
         """Kernel inputs, run IDs and scene JSON of the runs whose swept values are
-        ``columns`` (path -> float64 array; NaN: the base scene's value)."""
+        ``columns`` (path -> float64 array; NaN: the base scene's value). ``scenes`` False
+        skips the scene JSON (nothing will be stored: ``scene_json`` is empty)."""
         from bowlrec.core.batch import PackedPlans
 
         n = int(index.shape[0])
@@ -213,9 +216,11 @@ class FastSweep:
         fill = self._scene_template.fill
         lists = [params[p].tolist() for p in self.paths]
         text = pydantic_core.to_json
-        scene_json = [
-            fill([text(v).decode() for v in vals]).encode() for vals in zip(*lists, strict=True)
-        ]
+        scene_json = (
+            [fill([text(v).decode() for v in vals]).encode() for vals in zip(*lists, strict=True)]
+            if scenes
+            else []
+        )
         return FastChunk(index, given, packed, run_ids, scene_json, velocity, omega)
 
     def _base_value(self, path: str) -> float:

@@ -156,9 +156,54 @@ class InlineExecutor(Executor):
         return fut
 
 
+class _Workers:
+    """The executor a batch submits to; a local process pool is restarted when one of its
+    processes dies (killed, out of memory): a dead pool worker can leave the pool's result queue
+    locked, so the pool is replaced, not reused."""
+
+    def __init__(
+        self,
+        pool: Executor,
+        parallel: int,
+        make: Callable[[], Executor] | None = None,
+    ) -> None:
+        self.pool = pool
+        self.parallel = parallel
+        self._make = make
+        self.restarts = 0
+
+    def lost(self, fut: Future[Any]) -> bool:
+        """True when the future failed because its restartable pool broke (a worker died)."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        if self._make is None or not fut.done() or fut.cancelled():
+            return False
+        return isinstance(fut.exception(), BrokenProcessPool)
+
+    def broken(self) -> bool:
+        """True when a process of the local pool has died."""
+        processes = getattr(self.pool, "_processes", None)  # ProcessPoolExecutor's workers
+        if self._make is None or not processes:
+            return False
+        return any(p.exitcode is not None for p in list(processes.values()))
+
+    def restart(self) -> None:
+        """Kill what is left of the pool and start a new one."""
+        assert self._make is not None
+        for p in list((getattr(self.pool, "_processes", None) or {}).values()):
+            if p.exitcode is None:
+                p.kill()
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        self.pool = self._make()
+        self.restarts += 1
+
+    def close(self) -> None:
+        self.pool.shutdown(wait=True, cancel_futures=True)
+
+
 @contextmanager
-def _executor(workers: int | None, scheduler: str | None) -> Iterator[tuple[Executor, int]]:
-    """(executor, parallelism): a dask client's executor, this process, or a process pool."""
+def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
+    """A dask client's executor, this process, or a local process pool."""
     if scheduler is not None:
         try:
             from distributed import Client
@@ -168,10 +213,10 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[tuple[Exec
             ) from err
         with Client(scheduler, set_as_default=False) as client:
             nthreads = sum(client.nthreads().values()) or 1
-            yield client.get_executor(pure=False), nthreads
+            yield _Workers(client.get_executor(pure=False), nthreads)
         return
     if workers == 0:
-        yield InlineExecutor(), 1
+        yield _Workers(InlineExecutor(), 1)
         return
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
@@ -180,11 +225,15 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[tuple[Exec
     ctx = multiprocessing.get_context("forkserver")
     # the fork server imports and warms the kernels once; every worker forks from it ready
     ctx.set_forkserver_preload(["bowlrec.batch.warm"])
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init)
+
+    def make() -> Executor:
+        return ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init)
+
+    pool = _Workers(make(), n, make)
     try:
-        yield pool, n
+        yield pool
     finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        pool.close()
 
 
 # -- the orchestrator -------------------------------------------------------------------------
@@ -403,7 +452,7 @@ def run_job(
             raise RuntimeError(str(err)) from None
     result = BatchResult(param_columns(job))
     cancel = cancel or threading.Event()
-    with _maybe_executor(executor, workers, scheduler) as (pool, parallel):
+    with _maybe_executor(executor, workers, scheduler) as pool:
         local = executor is None and scheduler is None
         mode = "yes" if local and worker_writes == "auto" else worker_writes
         probe = token = None
@@ -414,7 +463,7 @@ def run_job(
         )
         orch = _Orchestrator(ctx, archive, target, result, sink, progress, start, before_register)
         try:
-            _drive(orch, pool, parallel, chunk_size, cancel)
+            _drive(orch, pool, chunk_size, cancel)
         finally:
             remove_probe(probe)
     result.elapsed_s = time.perf_counter() - start
@@ -423,38 +472,59 @@ def run_job(
 
 def _drive(
     orch: _Orchestrator,
-    pool: Executor,
-    parallel: int,
+    workers: _Workers,
     chunk_size: int | None,
     cancel: threading.Event,
 ) -> None:
     total = orch.total
-    size = chunk_size or _default_chunk(orch.ctx.job, total, parallel)
+    size = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel)
     ranges = deque((s, min(s + size, total)) for s in range(0, total, size))
     inflight: dict[Future[ChunkResult], tuple[int, int]] = {}
+    retried: set[tuple[int, int]] = set()
     result = orch.result
     orch.report()
 
     def settle(fut: Future[ChunkResult], span: tuple[int, int]) -> None:
         try:
             res = fut.result()
-        except Exception as err:  # a dead worker fails its chunk, not the batch
-            orch.emit(
-                span[0], _unrun(orch.ctx, *span, "failed", f"worker: {type(err).__name__}: {err}")
-            )
+        except Exception as err:  # a failing chunk fails its rows, not the batch
+            error = f"worker: {type(err).__name__}: {err}"
+            orch.emit(span[0], _unrun(orch.ctx, *span, "failed", error))
             return
         orch.take(res)
         if orch.result.error is not None:
             cancel.set()
 
+    def replace_pool(lost: list[tuple[int, int]]) -> None:
+        """A worker died: a new pool runs its chunks again (once; twice fails their rows)."""
+        lost += list(inflight.values())
+        inflight.clear()
+        workers.restart()
+        if orch.archive is not None:  # segments the dead worker sealed are registered first
+            orch.archive.recover()
+        for span in sorted(lost, reverse=True):
+            if span in retried:
+                error = "worker: a worker process died twice running these runs"
+                orch.emit(span[0], _unrun(orch.ctx, *span, "failed", error))
+            else:
+                retried.add(span)
+                ranges.appendleft(span)
+
     while (ranges or inflight) and not cancel.is_set():
-        while ranges and len(inflight) < 2 * parallel:
+        while ranges and len(inflight) < 2 * workers.parallel:
             span = ranges.popleft()
             task = ChunkTask(orch.ctx, span[0], span[1], orch.target)
-            inflight[pool.submit(run_chunk, task)] = span
+            inflight[workers.pool.submit(run_chunk, task)] = span
         finished, _ = wait(list(inflight), timeout=0.2, return_when=FIRST_COMPLETED)
+        lost = []
         for fut in finished:
-            settle(fut, inflight.pop(fut))
+            span = inflight.pop(fut)
+            if workers.lost(fut):
+                lost.append(span)
+            else:
+                settle(fut, span)
+        if lost or workers.broken():
+            replace_pool(lost)
         if finished:
             orch.report()
     if cancel.is_set():
@@ -462,6 +532,8 @@ def _drive(
         for fut, span in list(inflight.items()):
             if fut.cancel():
                 ranges.appendleft(span)
+            elif workers.broken():
+                ranges.appendleft(span)  # its worker died: not run
             else:
                 settle(fut, span)
         # after a failed write the runs not reached are failures that say why; after a
@@ -476,9 +548,9 @@ def _drive(
 @contextmanager
 def _maybe_executor(
     executor: Executor | None, workers: int | None, scheduler: str | None
-) -> Iterator[tuple[Executor, int]]:
+) -> Iterator[_Workers]:
     if executor is not None:
-        yield executor, max(1, workers or os.cpu_count() or 1)
+        yield _Workers(executor, max(1, workers or os.cpu_count() or 1))
         return
-    with _executor(workers, scheduler) as pair:
-        yield pair
+    with _executor(workers, scheduler) as pool:
+        yield pool
