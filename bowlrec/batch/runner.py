@@ -268,6 +268,13 @@ def _unrun(ctx: JobContext, start: int, stop: int, status: str, error: str | Non
     """Rows for runs ``start`` to ``stop`` that were not run (cancelled or failed)."""
     import numpy as np
 
+    if ctx.fast_paths is not None:  # numeric sweeps: columns, no object per run
+        index = np.arange(start, min(stop, ctx.job.count()), dtype=np.int64)
+        columns = ctx.job.columns(start, stop, ctx.fast_paths)
+        table = ChunkTable.empty(index, dict(columns))
+        table.status = [status] * len(index)
+        table.error = [error] * len(index)
+        return table
     points = ctx.job.points(start, stop)
     params: dict[str, list[Any]] = {}
     for k, p in enumerate(points):
