@@ -19,6 +19,7 @@ the batch the same way, and ``BatchResult.error`` says what happened.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import signal
@@ -188,12 +189,25 @@ class _Workers:
         return any(p.exitcode is not None for p in list(processes.values()))
 
     def restart(self) -> None:
-        """Kill what is left of the pool and start a new one."""
+        """Kill what is left of the pool and start a new one.
+
+        A worker killed while sending its result leaves a partial message in the pool's result
+        pipe, and the pool's manager thread then waits for the rest of it forever (and Python
+        waits for that thread at exit). Once every worker is dead, closing this process's copy
+        of the pipe's write end lets that read end with EOF, so the old pool shuts down."""
         assert self._make is not None
-        for p in list((getattr(self.pool, "_processes", None) or {}).values()):
+        old = self.pool
+        processes = list((getattr(old, "_processes", None) or {}).values())
+        for p in processes:
             if p.exitcode is None:
                 p.kill()
-        self.pool.shutdown(wait=False, cancel_futures=True)
+        for p in processes:
+            p.join(timeout=10)
+        writer = getattr(getattr(old, "_result_queue", None), "_writer", None)
+        if writer is not None:
+            with contextlib.suppress(OSError):
+                writer.close()
+        old.shutdown(wait=False, cancel_futures=True)
         self.pool = self._make()
         self.restarts += 1
 
