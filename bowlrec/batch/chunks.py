@@ -90,6 +90,21 @@ class WriteTarget:
     probe: str | None = None
     token: str | None = None
     durable: bool = True
+    #: a file to which a writing worker appends ``index run_id`` lines (fsynced) for the runs
+    #: it is about to seal, so the caller can account for a segment sealed just before a kill
+    run_log: str | None = None
+
+    def log_runs(self, index: Sequence[int], run_ids: Sequence[str | None]) -> None:
+        """Append the runs' lines to :attr:`run_log` (one write, then fsync)."""
+        if self.run_log is None:
+            return
+        text = "".join(f"{i} {r}\n" for i, r in zip(index, run_ids, strict=True) if r)
+        fd = os.open(self.run_log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
+        try:
+            os.write(fd, text.encode("ascii"))
+            os.fsync(fd)
+        finally:
+            os.close(fd)
 
     def worker_writes(self) -> bool:
         if self.mode != "auto":
@@ -358,6 +373,7 @@ class _Store:
         builder = self.archive.builder(samples=self.samples)
         for rec in self.records:
             builder.append(rec)
+        self.target.log_runs(result.table.index.tolist(), result.table.run_id)
         try:
             result.segment = self.archive.seal(builder, durable=self.target.durable)
         except ArchiveWriteError as err:
@@ -490,6 +506,7 @@ def _store_fast(
     if archive is None:
         result.summary_runs = runs
     else:
+        task.target.log_runs(result.table.index.tolist(), result.table.run_id)
         try:
             result.segment = archive.seal(runs, durable=task.target.durable)
         except ArchiveWriteError as err:

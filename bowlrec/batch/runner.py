@@ -438,6 +438,7 @@ def run_job(
     worker_writes: str = "auto",
     sink: TableSink | None = None,
     before_register: TableSink | None = None,
+    run_log: str | Path | None = None,
 ) -> BatchResult:
     """Run a job: simulate every run not yet archived, add it to ``archive`` (None: store
     nothing, the table only) and return the table.
@@ -452,9 +453,11 @@ def run_job(
     the archive's files (always for local processes). ``sink``: receives the table chunk by
     chunk in job order instead of keeping it in the result; ``before_register`` sees each
     finished chunk's rows before its runs are registered in the index (to log their run IDs
-    durably first, as the service does). ``recover`` first finishes what a
-    killed writer left; ``durable`` fsyncs every sealed segment. Raises JobError for an invalid
-    job before anything runs.
+    durably first, as the service does); ``run_log``: a file to which workers append ``index
+    run_id`` lines (fsynced) before sealing each chunk, so runs of a segment sealed just before
+    a kill are accounted for too. ``recover`` first finishes what a killed writer left;
+    ``durable`` fsyncs every sealed segment. Raises JobError for an invalid job before anything
+    runs.
     """
     from bowlrec.archive import ArchiveWriteError
 
@@ -480,7 +483,16 @@ def run_job(
         if archive is not None and mode == "auto":
             probe, token = new_probe(archive.root)
         target = (
-            None if archive is None else WriteTarget(str(archive.root), mode, probe, token, durable)
+            None
+            if archive is None
+            else WriteTarget(
+                str(archive.root),
+                mode,
+                probe,
+                token,
+                durable,
+                None if run_log is None else str(run_log),
+            )
         )
         orch = _Orchestrator(ctx, archive, target, result, sink, progress, start, before_register)
         try:

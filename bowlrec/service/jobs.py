@@ -6,8 +6,8 @@ own ``options``). At submission the job is checked as a whole without expanding 
 (:func:`bowlrec.batch.job_context`: base scene, paths, values, library balls, which are frozen
 to ``name@version``), then persisted in ``ARCHIVE/jobs/``: ``<id>.spec.json`` (the job; written
 once), ``<id>.json`` (the status record, replaced atomically as the job progresses) and
-``<id>.runs`` (the run IDs, appended and fsynced chunk by chunk before the chunk's runs are
-registered). One background thread runs the jobs in
+``<id>.runs`` (the run IDs, appended and fsynced by the workers before they seal a chunk and
+by this process before it registers one). One background thread runs the jobs in
 order on the batch engine, :func:`bowlrec.batch.run_job` (in this process, a local process pool
 or a Dask cluster): workers prepare, simulate and seal segments, this process registers them.
 
@@ -396,6 +396,7 @@ class JobManager:
             progress=progress,
             cancel=cancel,
             before_register=before_register,
+            run_log=self._runs_path(rec.job_id),
             sink=lambda table: None,  # the rows are in the runs file and the failures list
         )
         runs_file.close()
