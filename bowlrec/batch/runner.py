@@ -69,9 +69,29 @@ RECORDED_CHUNK = 32
 STATUSES = ("ok", "archived", "failed", "cancelled")
 
 
-def _worker_init() -> None:
-    """Pool workers leave Ctrl-C to the parent (which stops the batch cleanly)."""
+#: seconds between a pool worker's checks that the batch's process is alive
+PARENT_CHECK_S = 0.5
+
+
+def _worker_init(parent: int | None = None) -> None:
+    """Pool workers leave Ctrl-C to the parent (which stops the batch cleanly), and exit when
+    the batch's process ``parent`` is gone (killed): nothing would read their results, and the
+    next run of the job registers what they sealed."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if parent is None:
+        return
+
+    def watch() -> None:
+        while True:
+            time.sleep(PARENT_CHECK_S)
+            try:
+                os.kill(parent, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # the pid was reused by another user's process
+                os._exit(1)
+
+    threading.Thread(target=watch, name="bowlrec-parent-watch", daemon=True).start()
 
 
 # -- progress and results ---------------------------------------------------------------------
@@ -241,7 +261,9 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
     ctx.set_forkserver_preload(["bowlrec.batch.warm"])
 
     def make() -> Executor:
-        return ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init)
+        return ProcessPoolExecutor(
+            max_workers=n, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+        )
 
     pool = _Workers(make(), n, make)
     try:
