@@ -7,9 +7,9 @@ Starts a real server (uvicorn, 127.0.0.1, a fresh archive in a temporary directo
 loaded from numba's on-disk cache) and measures with httpx:
 
 - one client, one request at a time: ``POST /runs`` of a new summary-only scene (simulated,
-  written to the archive: a one-run segment, fsync, index registration), of an already
-  archived scene (content ID found, nothing written), ``GET /runs/{id}`` and ``GET /runs?limit=50``;
-  p50/p95/mean in milliseconds over ``--requests`` requests each;
+  written to the archive: a segment fsynced and registered, shared by concurrent requests), of
+  an already archived scene (content ID found, nothing written), ``GET /runs/{id}`` and
+  ``GET /runs?limit=50``; p50/p95/mean in milliseconds over ``--requests`` requests each;
 - concurrent clients: ``--clients`` threads x ``--per-client`` submissions, each followed by a
   ``GET`` of the run; once with every scene new and once with each scene submitted ~5 times (the
   concurrency test's mix): requests/s and new runs/s;
@@ -187,8 +187,9 @@ def markdown(res: dict[str, Any]) -> str:
         f"`python -m benchmarks.service` on {m['cpus']} CPU(s), {m['platform']}, Python "
         f"{m['python']}; load average before {m['load_before']}, after {m['load_after']} "
         "(the machine is shared). Summary-only scenes (closed-form solver, ~1 ms of physics); "
-        "a new run is a one-run segment written and fsynced plus its index registration (SQLite, "
-        "synchronous=FULL).",
+        "a new run is answered once its segment is written and fsynced and registered in the "
+        "index (SQLite, synchronous=FULL); the runs of concurrent requests share one segment "
+        "(group commit), a lone request's run has a segment of its own.",
         "",
         "## One client, sequential requests",
         "",
