@@ -30,11 +30,8 @@ def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
         return JobSpec.model_validate(scenes_or_job), Path(".")
     scenes: list[Any] = []
     for s in scenes_or_job:
-        if isinstance(s, BaseModel):
-            data = s.model_dump(mode="json")
-            if getattr(s, "format", None) == "bowler":
-                data["format"] = "bowler"
-            scenes.append(data)
+        if isinstance(s, BaseModel):  # a BowlerScene dumps its "format": "bowler"
+            scenes.append(s.model_dump(mode="json"))
         elif isinstance(s, dict | str):
             scenes.append(s if isinstance(s, dict) else str(s))
         elif isinstance(s, Path):

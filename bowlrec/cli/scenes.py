@@ -132,9 +132,7 @@ def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
     from bowlrec.scene_input import SceneInputError, parse_scene
 
     source = parsed.bowler if parsed.bowler is not None else parsed.scene
-    data = source.model_dump(mode="json")
-    if parsed.bowler is not None:
-        data["format"] = "bowler"
+    data = source.model_dump(mode="json")  # a bowler scene keeps its "format": "bowler"
     try:
         return parse_scene({**data, "ball": ref}, store.balls)
     except SceneInputError as err:
