@@ -92,3 +92,19 @@ def test_batch_takes_a_spec_sheet_in_a_bowler_scene_as_the_cli_and_service_do(
     physical = JobSpec.model_validate({"ball": "sheet"})
     with pytest.raises(ValueError, match="is a spec sheet"):
         run_job(physical, archive, workers=0)
+
+
+def test_batch_and_scene_input_load_no_heavy_module() -> None:
+    """Importing the batch package, simulate_many and the scene parser loads neither numba,
+    h5py, dask nor pyarrow: they load when something runs."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, bowlrec, bowlrec.batch, bowlrec.scene_input\n"
+        "bowlrec.simulate_many\n"
+        "heavy = [m for m in ('numba', 'h5py', 'dask', 'distributed', 'pyarrow') "
+        "if m in sys.modules]\n"
+        "assert not heavy, heavy\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True)

@@ -24,8 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bowlrec.core.summary import FLOAT_METRICS, INT_METRICS
-from bowlrec.core.trajectory import EVENT_KINDS
+from bowlrec.core.trajectory import EVENT_KINDS, FLOAT_METRICS, INT_METRICS
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive, RunRecord, SegmentInfo, SummaryRuns

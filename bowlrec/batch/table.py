@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bowlrec.core.summary import FLOAT_METRICS, INT_METRICS
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS
 
 from .chunks import METRIC_COLUMNS, ChunkTable
 

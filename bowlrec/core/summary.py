@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from .dynamics import roll_accel, slip
 from .integrator import EVENT_SLIDE_TO_ROLL, STATUS_AIRBORNE, STATUS_PINS
-from .trajectory import OUTCOMES
+from .trajectory import FLOAT_METRICS, INT_METRICS, OUTCOMES
 
 __all__ = [
     "FLOAT_METRICS",
@@ -33,20 +33,6 @@ __all__ = [
     "summary_columns",
     "summary_message",
 ]
-
-#: float metric columns of :func:`summary_columns` (NaN: no value)
-FLOAT_METRICS = (
-    "slide_m",
-    "hook_m",
-    "pocket_deg",
-    "time_s",
-    "x_end_m",
-    "y_end_m",
-    "speed_end_mps",
-    "rev_rate_end_rpm",
-)
-#: integer metric columns of :func:`summary_columns`
-INT_METRICS = ("n_steps", "n_rhs", "n_events")
 
 
 @njit(cache=True, error_model="numpy")

@@ -20,6 +20,20 @@ OUTCOMES = {
     7: "stalled",
 }
 
+#: the Summary's float metrics, as columns of many runs (NaN: no value)
+FLOAT_METRICS = (
+    "slide_m",
+    "hook_m",
+    "pocket_deg",
+    "time_s",
+    "x_end_m",
+    "y_end_m",
+    "speed_end_mps",
+    "rev_rate_end_rpm",
+)
+#: the Summary's integer metrics
+INT_METRICS = ("n_steps", "n_rhs", "n_events")
+
 EVENT_KINDS = {
     1: "slide_to_roll",
     2: "roll_to_slide",
