@@ -5,8 +5,6 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
-import pytest
-
 from bowlrec.archive import Archive, ArchiveWriteError
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.spec import Scene
@@ -102,5 +100,14 @@ def test_recorded_runs_are_not_grouped(tmp_path: Path) -> None:
     finally:
         group.close()
     assert res.added and group.commits == 0
-    with pytest.raises(RuntimeError, match="closed"):
-        archive.simulate(_scene(5), group=group)
+    late = archive.simulate(_scene(5), group=group)  # after close: committed on its own
+    assert late.added and archive.has_run(late.run_id)
+
+
+def test_a_committer_never_started_starts_on_first_use(tmp_path: Path) -> None:
+    archive = Archive(tmp_path / "a")
+    group = GroupCommitter(archive)
+    try:
+        assert archive.simulate(_scene(7), group=group).added and group.commits == 1
+    finally:
+        group.close()

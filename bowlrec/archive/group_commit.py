@@ -38,8 +38,10 @@ class _Waiter:
 class GroupCommitter:
     """Seals runs added from many threads in shared segments (see the module docs).
 
-    ``max_runs``: runs per segment at most; ``durable``: fsync each segment. Start with
-    :meth:`start`, stop with :meth:`close` (runs already handed over are committed first).
+    ``max_runs``: runs per segment at most; ``durable``: fsync each segment. :meth:`start`
+    starts the committer thread (the first :meth:`add` does if needed); :meth:`close` stops it
+    after committing the runs already handed over, and a run added later is committed on its
+    own in the calling thread.
     """
 
     def __init__(self, archive: Archive, *, max_runs: int = 1000, durable: bool = True) -> None:
@@ -73,10 +75,14 @@ class GroupCommitter:
         before). Raises what the write raised (ArchiveWriteError on a full disk)."""
         waiter = _Waiter(record)
         with self._cond:
-            if self._closed:
-                raise RuntimeError("the group committer is closed")
-            self._pending.append(waiter)
-            self._cond.notify()
+            closed = self._closed
+            if not closed:
+                if self._thread is None:  # not started: start on first use
+                    self.start()
+                self._pending.append(waiter)
+                self._cond.notify()
+        if closed:  # after close (a server shutting down): commit this run on its own
+            self._commit([waiter], _finish)
         waiter.done.wait()
         if waiter.error is not None:
             raise waiter.error

@@ -182,13 +182,21 @@ def _register_new_segments(
     return n, unreadable
 
 
+#: seconds a locked-kind temporary must have existed before an unlocked one is deemed dead
+#: (its writer creates it, then locks it: microseconds apart)
+LOCKED_PART_AGE_S = 0.2
+
+
 def recover(archive: Archive, con: sqlite3.Connection, *, min_age_s: float = 2.0) -> dict[str, int]:
     """Finish what killed writers left (the caller holds the writer lock). Counts of each.
 
-    Segment temporaries are always written under a lock, so an unlocked one is a killed
-    writer's whatever its age; other temporaries are removed once ``min_age_s`` old."""
+    Segment temporaries are written under a lock, so an unlocked one is a killed writer's
+    once it is older than the instant between its creation and its lock
+    (:data:`LOCKED_PART_AGE_S`); other temporaries are removed once ``min_age_s`` old."""
     removed = sum(
-        remove_stale_parts(d, min_age_s=0.0 if d == archive.segments_dir else min_age_s)
+        remove_stale_parts(
+            d, min_age_s=LOCKED_PART_AGE_S if d == archive.segments_dir else min_age_s
+        )
         for d in (archive.segments_dir, archive.balls_dir, archive.tombstones_dir)
         if d.is_dir()
     )

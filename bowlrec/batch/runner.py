@@ -354,6 +354,8 @@ class _Orchestrator:
         self.start = start
         self.total = ctx.job.count()
         self.ready: dict[int, ChunkTable] = {}
+        #: run IDs a shipped chunk held that were archived already (set by _seal_shipped)
+        self._present: set[str] = set()
         self.next_row = 0
         self.done = 0
 
@@ -404,6 +406,7 @@ class _Orchestrator:
             try:
                 if res.records or res.summary_runs is not None:
                     res.segment = self._seal_shipped(res)
+                    _mark_present(res.table, self._present)
                 if res.segment is not None:
                     path = self.archive.segments_dir / res.segment.path.name
                     info = res.segment
@@ -427,14 +430,23 @@ class _Orchestrator:
         if res.summary_runs is not None:
             runs = res.summary_runs
             present = self.archive.rows(runs.run_ids())
+            self._present = set(present)
             keep = [i for i, rid in enumerate(runs.run_ids()) if rid not in present]
             return self.archive.seal(runs.select(keep), durable=durable) if keep else None
         present = self.archive.rows(r.run_id for r in res.records)
+        self._present = set(present)
         builder = self.archive.builder(samples=self.ctx.job.samples)
         for rec in res.records:
             if rec.run_id not in present:
                 builder.append(rec)
         return self.archive.seal(builder, durable=durable) if len(builder) else None
+
+
+def _mark_present(table: ChunkTable, present: set[str]) -> None:
+    """Rows of shipped runs the archive already held are "archived", not new."""
+    for i, (status, rid) in enumerate(zip(table.status, table.run_id, strict=True)):
+        if status == "ok" and rid in present:
+            table.status[i] = "archived"
 
 
 def _fail_new(table: ChunkTable, error: str) -> None:

@@ -50,6 +50,8 @@ __all__ = [
 #: file types a table is written as, by suffix
 TABLE_SUFFIXES = (".csv", ".parquet", ".json", ".jsonl")
 _TEXT = ("run_id", "status", "error")
+#: parameter column kind -> pyarrow type factory (filled when pyarrow is first used)
+_ARROW_TYPES: dict[str, Any] = {}
 
 
 def table_columns(param_columns: Sequence[str]) -> list[str]:
@@ -128,6 +130,8 @@ def table_rows(result: BatchResult) -> list[dict[str, Any]]:
 def _arrow_chunk(table: ChunkTable, params: Sequence[str], types: dict[str, str]) -> pa.Table:
     import pyarrow as pa
 
+    _ARROW_TYPES.update(bool=pa.bool_, int64=pa.int64, float64=pa.float64, string=pa.string)
+
     arrays: list[Any] = [pa.array(table.index, type=pa.int64())]
     for c in params:
         values = table.params.get(c)
@@ -140,7 +144,7 @@ def _arrow_chunk(table: ChunkTable, params: Sequence[str], types: dict[str, str]
             cells = [None if v is None else str(v) for v in cells]
         elif kind == "float64":
             cells = [None if v is None else float(v) for v in cells]
-        arrays.append(pa.array(cells, type=getattr(pa, kind)()))
+        arrays.append(pa.array(cells, type=_ARROW_TYPES[kind]()))
     for c in _TEXT:
         arrays.append(pa.array(getattr(table, c), type=pa.string()))
     missing = ~table.has_metrics
@@ -170,7 +174,8 @@ def to_arrow(result: BatchResult, job: JobSpec | None = None) -> pa.Table:
 
 def to_numpy(result: BatchResult) -> np.ndarray:
     """The result's table as a NumPy structured array: absent values are NaN (float), -1
-    (integer) or "" (text); parameters that are not all numbers are JSON text."""
+    (integer) or "" (text); parameters that are not all numbers (or all present booleans) are
+    JSON text."""
     n = result.n_rows
     rows_params = {
         c: [v for t in result.tables for v in _param_values(t, c)] for c in result.param_columns
@@ -183,7 +188,7 @@ def to_numpy(result: BatchResult) -> np.ndarray:
             arr = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
             if kind == "int64":
                 arr = np.array([-1 if v is None else v for v in values], dtype=np.int64)
-        elif kind == "bool":
+        elif kind == "bool" and None not in values:
             arr = np.array([bool(v) for v in values])
         else:
             arr = np.array(["" if v is None else str(_cell(v)) for v in values])

@@ -77,7 +77,11 @@ def batch(
     ] = "auto",
     replay_dir: Annotated[
         Path | None,
-        typer.Option("--replay-dir", help="Where the job's replay formats go (default: PREFIX/)."),
+        typer.Option(
+            "--replay-dir",
+            help="Where the job's replay formats go (default: PREFIX/, or the table file's "
+            "name without its suffix).",
+        ),
     ] = None,
     chunk_size: Annotated[
         int | None, typer.Option("--chunk-size", min=1, help="Runs per worker task.")
@@ -130,7 +134,7 @@ def batch(
                 chunk_size=chunk_size,
                 progress=update,
                 cancel=cancel,
-                replay_dir=replay_dir if replay_dir is not None else prefix,
+                replay_dir=replay_dir if replay_dir is not None else _replay_default(prefix),
                 worker_writes=worker_writes,
                 sink=writer.write,
             )
@@ -140,6 +144,9 @@ def batch(
     except (RuntimeError, OSError) as err:
         writer.abort()
         fail(str(err))
+    except BaseException:
+        writer.abort()
+        raise
     finally:
         signal.signal(signal.SIGINT, previous)
     try:
@@ -172,12 +179,26 @@ def batch(
         )
         raise typer.Exit(1)
     if result.cancelled:
-        where = "" if store is None else f" were added to {store.root}"
-        typer.echo(
-            f"interrupted: {c['ok']} finished runs{where}; rerun the same command to do the rest",
-            err=True,
-        )
+        if store is None:
+            typer.echo(
+                f"interrupted: the table holds the {c['ok']} runs that finished (the rest are "
+                "'cancelled' rows; without an archive a rerun simulates everything again)",
+                err=True,
+            )
+        else:
+            typer.echo(
+                f"interrupted: {c['ok']} finished runs were added to {store.root}; rerun the "
+                "same command to do the rest",
+                err=True,
+            )
         raise typer.Exit(EXIT_INTERRUPTED)
+
+
+def _replay_default(prefix: Path) -> Path:
+    """Replays go to PREFIX/ (for ``--out table.csv``: ``table/``)."""
+    from bowlrec.batch import table_paths
+
+    return prefix.with_suffix("") if table_paths(prefix) == [prefix] else prefix
 
 
 class _progress:

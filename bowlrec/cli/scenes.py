@@ -66,7 +66,11 @@ def simulate(
     from bowlrec.spec import Scene
 
     parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
-    scene_obj = parsed.scene
+    store = None if no_archive else open_archive(archive)
+    if ball is not None:
+        with archive_errors():
+            parsed = _with_library_ball(parsed, ball, store or open_archive(archive))
+    scene_obj, ball_ref = parsed.scene, parsed.ball_ref
     needs_samples = wants_samples(out, mcap, rrd, connect, spawn, plot)
     # a bowler-language scene reports in bowlers' terms, which reads the samples
     keep_samples = needs_samples or parsed.bowler is not None
@@ -77,12 +81,7 @@ def simulate(
             typer.echo(
                 "note: recording every step (options.record = 'steps') for the outputs", err=True
             )
-    store = None if no_archive else open_archive(archive)
-    ball_ref = None
     with archive_errors():
-        if ball is not None:
-            parsed = _with_library_ball(parsed, ball, store or open_archive(archive))
-            scene_obj, ball_ref = parsed.scene, parsed.ball_ref
         if store is not None:
             result = with_status(
                 "simulating (first run compiles kernels)",

@@ -387,19 +387,21 @@ class JobManager:
                 if status == "failed"
             )
 
-        result = run_job(
-            self._job(rec.job_id),
-            self.archive,
-            workers=self.workers,
-            scheduler=self.scheduler,
-            chunk_size=self.chunk_size,
-            progress=progress,
-            cancel=cancel,
-            before_register=before_register,
-            run_log=self._runs_path(rec.job_id),
-            sink=lambda table: None,  # the rows are in the runs file and the failures list
-        )
-        runs_file.close()
+        try:
+            result = run_job(
+                self._job(rec.job_id),
+                self.archive,
+                workers=self.workers,
+                scheduler=self.scheduler,
+                chunk_size=self.chunk_size,
+                progress=progress,
+                cancel=cancel,
+                before_register=before_register,
+                run_log=self._runs_path(rec.job_id),
+                sink=lambda table: None,  # the rows are in the runs file and the failures list
+            )
+        finally:
+            runs_file.close()
         counts = result.counts
         with self._mutex:
             rec.done = counts["ok"] + counts["archived"]
