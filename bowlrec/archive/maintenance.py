@@ -192,10 +192,12 @@ def recover(archive: Archive, con: sqlite3.Connection, *, min_age_s: float = 2.0
 
     Segment temporaries are written under a lock, so an unlocked one is a killed writer's
     once it is older than the instant between its creation and its lock
-    (:data:`LOCKED_PART_AGE_S`); other temporaries are removed once ``min_age_s`` old."""
+    (:data:`LOCKED_PART_AGE_S`, or ``min_age_s`` if smaller: 0 when the caller knows no writer
+    runs); other temporaries are removed once ``min_age_s`` old."""
     removed = sum(
         remove_stale_parts(
-            d, min_age_s=LOCKED_PART_AGE_S if d == archive.segments_dir else min_age_s
+            d,
+            min_age_s=min(min_age_s, LOCKED_PART_AGE_S) if d == archive.segments_dir else min_age_s,
         )
         for d in (archive.segments_dir, archive.balls_dir, archive.tombstones_dir)
         if d.is_dir()

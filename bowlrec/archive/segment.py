@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bowlrec.core.trajectory import Summary
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
 
 if TYPE_CHECKING:
     from bowlrec.sinks.common import RunData
@@ -53,18 +53,9 @@ SEGMENT_FORMAT = "bowlrec-segment"
 #: major.minor: readers accept every minor of their major (docs/archive-format.md)
 SEGMENT_FORMAT_VERSION = "2.0"
 
-#: summary metrics stored as float64 columns (NaN stands for None)
-SUMMARY_FLOAT_COLUMNS = (
-    "slide_m",
-    "hook_m",
-    "pocket_deg",
-    "time_s",
-    "x_end_m",
-    "y_end_m",
-    "speed_end_mps",
-    "rev_rate_end_rpm",
-)
-SUMMARY_INT_COLUMNS = ("n_steps", "n_rhs", "n_events")
+#: summary metrics stored as float64 columns (NaN stands for None) and as int64 columns
+SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
+SUMMARY_INT_COLUMNS = INT_METRICS
 #: per-run index columns that are not summary metrics
 RUN_FLOAT_COLUMNS = ("speed_mps", "rev_rate_rpm", "mass_kg", "rtol", "wall_time_s")
 RUN_STRING_COLUMNS = ("run_id", "name", "ball_ref", "ball_sha", "pattern", "record", "solver")
@@ -295,7 +286,6 @@ class SegmentBuilder:
     def columns(self) -> dict[str, Any]:
         """Every dataset of the segment by group and name (digests included)."""
         recs = self.records
-        n = len(recs)
         runs: dict[str, NDArray[Any]] = {}
         for name in RUN_STRING_COLUMNS:
             runs[name] = _strings(getattr(r, name) for r in recs)
@@ -313,36 +303,20 @@ class SegmentBuilder:
         events = self._events()
         trajectory, traj_offsets = self._samples()
         torques, torque_offsets, terms = self._torques()
-        fixed = row_matrix(fixed_columns(runs, summary), n)
-        ev_m = row_matrix(event_columns(events), int(events["t_s"].shape[0]))
         smp_m = row_matrix(sample_columns(trajectory), int(traj_offsets[-1]))
         tq_m = row_matrix([torques[t] for t in terms], int(torque_offsets[-1]))
-        digests = [
-            run_digest(
-                fixed[i].data,
-                scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
-                message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
-                ev_m[events["offsets"][i] : events["offsets"][i + 1]].data,
-                smp_m[traj_offsets[i] : traj_offsets[i + 1]].data,
-                tq_m[torque_offsets[i] : torque_offsets[i + 1]].data,
-            )
-            for i in range(n)
-        ]
-        runs["digest"] = np.array(digests, dtype="S32")
-        runs["scene_json"] = scene_bytes
-        runs["scene_json_offsets"] = scene_offsets
-        summary["message"] = message_bytes
-        summary["message_offsets"] = message_offsets
         trajectory["offsets"] = traj_offsets
         torques["offsets"] = torque_offsets
-        return {
-            "runs": runs,
-            "summary": summary,
-            "events": events,
-            "trajectory": trajectory,
-            "torques": torques,
-            "_terms": np.array([t.encode() for t in terms], dtype="S64"),
-        }
+        return _with_digests(
+            runs,
+            summary,
+            (scene_bytes, scene_offsets),
+            (message_bytes, message_offsets),
+            events,
+            (trajectory, smp_m),
+            (torques, tq_m),
+            terms,
+        )
 
     def _events(self) -> dict[str, NDArray[Any]]:
         rows = [e for r in self.records for e in r.events]
@@ -502,34 +476,65 @@ class SummaryRuns:
             "y_m": rows[:, 3].copy(),
             "offsets": offsets,
         }
-        zero = np.zeros(n + 1, dtype=np.int64)
-        fixed = row_matrix(fixed_columns(runs, summary), n)
-        ev_m = row_matrix(event_columns(events), int(rows.shape[0]))
-        empty = b""
-        digests = [
-            run_digest(
-                fixed[i].data,
-                scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
-                message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
-                ev_m[offsets[i] : offsets[i + 1]].data,
-                empty,
-                empty,
-            )
-            for i in range(n)
-        ]
-        runs["digest"] = np.array(digests, dtype="S32")
-        runs["scene_json"] = scene_bytes
-        runs["scene_json_offsets"] = scene_offsets
-        summary["message"] = message_bytes
-        summary["message_offsets"] = message_offsets
-        return {
-            "runs": runs,
-            "summary": summary,
-            "events": events,
-            "trajectory": {"offsets": zero},
-            "torques": {"offsets": zero.copy()},
-            "_terms": np.array([], dtype="S64"),
-        }
+        no_samples = np.zeros((0, 0), dtype=np.uint8)
+        return _with_digests(
+            runs,
+            summary,
+            (scene_bytes, scene_offsets),
+            (message_bytes, message_offsets),
+            events,
+            ({"offsets": np.zeros(n + 1, dtype=np.int64)}, no_samples),
+            ({"offsets": np.zeros(n + 1, dtype=np.int64)}, no_samples),
+            [],
+        )
+
+
+def _with_digests(
+    runs: dict[str, NDArray[Any]],
+    summary: dict[str, NDArray[Any]],
+    scenes: tuple[NDArray[np.uint8], NDArray[np.int64]],
+    messages: tuple[NDArray[np.uint8], NDArray[np.int64]],
+    events: dict[str, NDArray[Any]],
+    samples: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
+    torques: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
+    terms: Sequence[str],
+) -> dict[str, Any]:
+    """A segment's datasets by group, each run's digest computed (see :func:`run_digest`).
+
+    ``samples`` and ``torques``: each group's datasets (with ``offsets``) and its row matrix
+    (:func:`row_matrix`; any empty matrix when no run has rows)."""
+    n = int(runs["run_id"].shape[0])
+    scene_bytes, scene_offsets = scenes
+    message_bytes, message_offsets = messages
+    fixed = row_matrix(fixed_columns(runs, summary), n)
+    ev_off = events["offsets"]
+    ev_m = row_matrix(event_columns(events), int(ev_off[-1]))
+    smp_off, tq_off = samples[0]["offsets"], torques[0]["offsets"]
+    smp_m, tq_m = samples[1], torques[1]
+    digests = [
+        run_digest(
+            fixed[i].data,
+            scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
+            message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
+            ev_m[ev_off[i] : ev_off[i + 1]].data,
+            smp_m[smp_off[i] : smp_off[i + 1]].data,
+            tq_m[tq_off[i] : tq_off[i + 1]].data,
+        )
+        for i in range(n)
+    ]
+    runs["digest"] = np.array(digests, dtype="S32")
+    runs["scene_json"] = scene_bytes
+    runs["scene_json_offsets"] = scene_offsets
+    summary["message"] = message_bytes
+    summary["message_offsets"] = message_offsets
+    return {
+        "runs": runs,
+        "summary": summary,
+        "events": events,
+        "trajectory": samples[0],
+        "torques": torques[0],
+        "_terms": np.array([t.encode() for t in terms], dtype="S64"),
+    }
 
 
 def _fixed(values: list[bytes]) -> NDArray[np.bytes_]:

@@ -13,7 +13,6 @@ returns the chunk's table columns (:class:`ChunkTable`).
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import time
 import uuid
@@ -288,27 +287,9 @@ def _messages(
 
 
 def _summary(cols: dict[str, np.ndarray], i: int, message: str) -> Summary:
-    from bowlrec.core.trajectory import Summary
+    from bowlrec.core.solver import summary_from_columns
 
-    def opt(name: str) -> float | None:
-        v = float(cols[name][i])
-        return None if math.isnan(v) else v
-
-    return Summary(
-        outcome=str(cols["outcome"][i]),
-        message=message,
-        slide_m=opt("slide_m"),
-        hook_m=opt("hook_m"),
-        pocket_deg=opt("pocket_deg"),
-        time_s=float(cols["time_s"][i]),
-        x_end_m=float(cols["x_end_m"][i]),
-        y_end_m=float(cols["y_end_m"][i]),
-        speed_end_mps=float(cols["speed_end_mps"][i]),
-        rev_rate_end_rpm=float(cols["rev_rate_end_rpm"][i]),
-        n_steps=int(cols["n_steps"][i]),
-        n_rhs=int(cols["n_rhs"][i]),
-        n_events=int(cols["n_events"][i]),
-    )
+    return summary_from_columns(cols, i, message)
 
 
 def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
@@ -578,6 +559,17 @@ def _run_general(
     return result
 
 
+def _settle_row(table: ChunkTable, i: int, summary: Summary) -> bool:
+    """Row ``i`` takes a simulated run's metrics and status; True when the run is to be stored
+    (not a failed outcome)."""
+    table.set_metrics(i, summary.__dict__)
+    if summary.outcome in FAILED_OUTCOMES:
+        table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
+        return False
+    table.status[i] = "ok"
+    return True
+
+
 def _summary_only(plan: Plan | None) -> bool:
     from bowlrec.core.plan import RECORD_SUMMARY
 
@@ -636,12 +628,7 @@ def _general_summary(
     messages = _messages(cols, range(len(rows)), packed)
     for j, i in enumerate(rows):
         summary = _summary(cols, j, messages[j])
-        table.set_metrics(i, summary.__dict__)
-        if summary.outcome in FAILED_OUTCOMES:
-            table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
-            continue
-        table.status[i] = "ok"
-        if task.target is None:
+        if not _settle_row(table, i, summary) or task.target is None:
             continue
         prep = prepared[i]
         events = _events(raw, j)
@@ -678,12 +665,7 @@ def _general_recorded(
     result.simulated += 1
     result.simulate_s += wall
     summary = traj.summary
-    table.set_metrics(i, summary.__dict__)
-    if summary.outcome in FAILED_OUTCOMES:
-        table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
-        return
-    table.status[i] = "ok"
-    if task.target is None:
+    if not _settle_row(table, i, summary) or task.target is None:
         return
     solver = "closed_form" if use_closed_form(prep.plan) else "integrator"
     store.add(_record(ctx, prep, summary, [], wall, solver, traj))

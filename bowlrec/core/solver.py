@@ -240,13 +240,16 @@ def summarize(
         np.array([nfev]),
         np.array([ev.shape[0]]),
     )
-    return summary_from_columns(cols, 0, plan.max_time_s, plan.max_steps, status)
+    outcome = str(cols["outcome"][0])
+    message = summary_message(
+        outcome, float(t_end), float(y_end[0]), plan.max_time_s, plan.max_steps, status
+    )
+    return summary_from_columns(cols, 0, message)
 
 
-def summary_from_columns(
-    cols: dict[str, Any], i: int, max_time_s: float, max_steps: int, status: int
-) -> Summary:
-    """Row ``i`` of :func:`~bowlrec.core.summary.summary_columns` as a Summary (NaN -> None)."""
+def summary_from_columns(cols: dict[str, Any], i: int, message: str) -> Summary:
+    """Row ``i`` of :func:`~bowlrec.core.summary.summary_columns` as a Summary (NaN -> None)
+    with its ``message`` (:func:`~bowlrec.core.summary.summary_message`)."""
 
     def opt(name: str) -> float | None:
         v = float(cols[name][i])
@@ -257,7 +260,7 @@ def summary_from_columns(
     x_end = float(cols["x_end_m"][i])
     return Summary(
         outcome=outcome,
-        message=summary_message(outcome, t_end, x_end, max_time_s, max_steps, status),
+        message=message,
         slide_m=opt("slide_m"),
         hook_m=opt("hook_m"),
         pocket_deg=opt("pocket_deg"),
