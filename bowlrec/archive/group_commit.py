@@ -14,7 +14,6 @@ A run is reported archived only after its segment is sealed (fsynced) and regist
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -82,7 +81,7 @@ class GroupCommitter:
                 self._pending.append(waiter)
                 self._cond.notify()
         if closed:  # after close (a server shutting down): commit this run on its own
-            self._commit([waiter], _finish)
+            self._commit([waiter])
         waiter.done.wait()
         if waiter.error is not None:
             raise waiter.error
@@ -98,9 +97,9 @@ class GroupCommitter:
                     return
                 batch = self._pending[: self.max_runs]
                 del self._pending[: self.max_runs]
-            self._commit(batch, _finish)
+            self._commit(batch)
 
-    def _commit(self, batch: list[_Waiter], finish: Callable[[list[_Waiter]], None]) -> None:
+    def _commit(self, batch: list[_Waiter]) -> None:
         """Seal and register the batch's runs (those not archived yet) as one segment."""
         archive = self.archive
         try:
@@ -124,9 +123,5 @@ class GroupCommitter:
         except BaseException as err:  # the write failed: every waiter of this batch learns it
             for w in batch:
                 w.error = err
-        finish(batch)
-
-
-def _finish(batch: list[_Waiter]) -> None:
-    for w in batch:
-        w.done.set()
+        for w in batch:
+            w.done.set()

@@ -286,12 +286,6 @@ def _messages(
     return out
 
 
-def _summary(cols: dict[str, np.ndarray], i: int, message: str) -> Summary:
-    from bowlrec.core.solver import summary_from_columns
-
-    return summary_from_columns(cols, i, message)
-
-
 def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
     """Run the many-delivery kernel (this thread): metric columns, the raw output, seconds."""
     from bowlrec.core.batch import B_STATUS, batch_metrics, run_batch
@@ -619,6 +613,7 @@ def _general_summary(
     result: ChunkResult,
 ) -> None:
     from bowlrec.core.batch import pack_plans
+    from bowlrec.core.solver import summary_from_columns
 
     plans = [prepared[i].plan for i in rows]
     packed = pack_plans(plans)  # type: ignore[arg-type]
@@ -627,7 +622,7 @@ def _general_summary(
     result.simulate_s += wall
     messages = _messages(cols, range(len(rows)), packed)
     for j, i in enumerate(rows):
-        summary = _summary(cols, j, messages[j])
+        summary = summary_from_columns(cols, j, messages[j])
         if not _settle_row(table, i, summary) or task.target is None:
             continue
         prep = prepared[i]

@@ -191,7 +191,6 @@ class _Workers:
         self.pool = pool
         self.parallel = parallel
         self._make = make
-        self.restarts = 0
 
     def lost(self, fut: Future[Any]) -> bool:
         """True when the future failed because its restartable pool broke (a worker died)."""
@@ -229,7 +228,6 @@ class _Workers:
                 writer.close()
         old.shutdown(wait=False, cancel_futures=True)
         self.pool = self._make()
-        self.restarts += 1
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)

@@ -50,8 +50,6 @@ __all__ = [
 #: file types a table is written as, by suffix
 TABLE_SUFFIXES = (".csv", ".parquet", ".json", ".jsonl")
 _TEXT = ("run_id", "status", "error")
-#: parameter column kind -> pyarrow type factory (filled when pyarrow is first used)
-_ARROW_TYPES: dict[str, Any] = {}
 
 
 def table_columns(param_columns: Sequence[str]) -> list[str]:
@@ -130,7 +128,7 @@ def table_rows(result: BatchResult) -> list[dict[str, Any]]:
 def _arrow_chunk(table: ChunkTable, params: Sequence[str], types: dict[str, str]) -> pa.Table:
     import pyarrow as pa
 
-    _ARROW_TYPES.update(bool=pa.bool_, int64=pa.int64, float64=pa.float64, string=pa.string)
+    arrow_types = {"bool": pa.bool_, "int64": pa.int64, "float64": pa.float64, "string": pa.string}
 
     arrays: list[Any] = [pa.array(table.index, type=pa.int64())]
     for c in params:
@@ -144,7 +142,7 @@ def _arrow_chunk(table: ChunkTable, params: Sequence[str], types: dict[str, str]
             cells = [None if v is None else str(v) for v in cells]
         elif kind == "float64":
             cells = [None if v is None else float(v) for v in cells]
-        arrays.append(pa.array(cells, type=_ARROW_TYPES[kind]()))
+        arrays.append(pa.array(cells, type=arrow_types[kind]()))
     for c in _TEXT:
         arrays.append(pa.array(getattr(table, c), type=pa.string()))
     missing = ~table.has_metrics
