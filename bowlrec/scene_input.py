@@ -51,6 +51,16 @@ class ParsedScene:
     bowler: BowlerScene | None = None
 
 
+#: top-level fields only a bowler-language scene has
+_BOWLER_ONLY = frozenset({"layout", "pap", "pattern", "balance", "rules", "allow_illegal"})
+
+
+def prefix_lines(prefix: object, text: str) -> str:
+    """Every line of ``text`` as ``"<prefix>: <line>"`` (one error per line, each naming the
+    file, like a compiler's messages)."""
+    return "\n".join(f"{prefix}: {line}" for line in text.splitlines())
+
+
 def is_bowler(data: Any) -> bool:
     """True for a bowler-language scene mapping (top level ``"format": "bowler"``)."""
     return isinstance(data, Mapping) and data.get("format") == "bowler"
@@ -118,17 +128,39 @@ def parse_scene(
         raise SceneInputError(
             f"{what}: expected a mapping (JSON object), got {type(data).__name__}"
         )
+    if "format" in data and data["format"] != "bowler":
+        from bowlrec.spec.errors import printable
+
+        raise SceneInputError(
+            printable(
+                "format: Input should be 'bowler' (a bowler-language scene), or left out (a "
+                f"physical scene) (got {data['format']!r})"
+            )
+        )
     lookup = balls if callable(balls) else library_lookup(balls) if balls is not None else None
     data, ball_ref = with_library_ball(data, lookup)
     try:
-        if is_bowler(data):
-            from bowlrec.bowling.scene import BowlerScene
+        if not is_bowler(data):
+            return ParsedScene(Scene.model_validate(data), ball_ref)
+        from bowlrec.bowling.scene import BowlerScene
 
-            bowler = BowlerScene.model_validate(data)
-            return ParsedScene(bowler.to_scene(), ball_ref, bowler)
-        return ParsedScene(Scene.model_validate(data), ball_ref)
+        bowler = BowlerScene.model_validate(data)
     except ValidationError as err:
-        raise SceneInputError(format_validation_error(err)) from None
+        text = format_validation_error(err)
+        hint = sorted(_BOWLER_ONLY & set(data)) if not is_bowler(data) else []
+        if hint:  # the other errors are the bowler fields a physical scene does not have
+            text = (
+                f"format: missing; {', '.join(hint)} belong to a bowler-language scene: add "
+                '"format": "bowler"'
+            )
+        raise SceneInputError(text) from None
+    try:
+        return ParsedScene(bowler.to_scene(), ball_ref, bowler)
+    except ValidationError as err:  # valid bowler fields whose physical scene is not
+        lines = format_validation_error(err).splitlines()
+        raise SceneInputError(
+            "\n".join(f"{what}: the physical scene of this bowler scene: {x}" for x in lines)
+        ) from None
     except ValueError as err:  # a bowler scene that cannot be placed (an illegal ball, ...)
         raise SceneInputError(f"{what}: {err}") from None
 
@@ -148,4 +180,4 @@ def parse_scene_file(
     try:
         return parse_scene(data, balls)
     except SceneInputError as err:
-        raise SceneInputError(f"{p}: invalid scene\n{err}") from None
+        raise SceneInputError(prefix_lines(p, str(err))) from None

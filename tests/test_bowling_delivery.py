@@ -90,6 +90,8 @@ def test_lane_round_trip_and_range() -> None:
     [
         ({"speed_mph": 0.0}, ["speed_mph", "greater than 0"]),
         ({"rev_rate_rpm": -1.0}, ["rev_rate_rpm", "greater than or equal to 0"]),
+        ({"rev_rate_rpm": 9501.0}, ["rev_rate_rpm", "less than or equal to 9500"]),
+        ({"speed_mph": 221.0}, ["speed_mph", "less than or equal to 220"]),
         ({"laydown_board": 40.0}, ["laydown_board", "less than or equal to 39.5", "40"]),
         ({"axis_rotation_deg": 181.0}, ["axis_rotation_deg", "181"]),
         ({"axis_tilt_deg": -91.0}, ["axis_tilt_deg", "-91"]),

@@ -279,14 +279,14 @@ def test_fast_scene_json_is_the_general_paths_text() -> None:
             "base": case16(rtol=1e-9),
             "sweep": {
                 "kind": "zip",
-                "axes": {"delivery.omega_radps[2]": [1e-05, 2.5e-7, 3.0, 1e20]},
+                "axes": {"delivery.omega_radps[2]": [1e-05, 2.5e-7, 3.0, 999.0, 1e-20]},
             },
         }
     )
     ctx = job_context(job)
     assert ctx.fast_paths is not None
     fast = FastSweep(Scene.model_validate(ctx.base_data), ctx.fast_paths)
-    chunk = fast.prepare(np.arange(4), job.columns(0, 4, ctx.fast_paths))
+    chunk = fast.prepare(np.arange(5), job.columns(0, 5, ctx.fast_paths))
     for i, prep in enumerate(prepare_runs(job)):
         assert prep.scene is not None
         assert chunk.scene_json[i].decode() == prep.scene.model_dump_json()

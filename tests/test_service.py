@@ -356,9 +356,16 @@ def test_invalid_specs_get_422_with_field_named_messages(client: httpx.Client) -
     bad_filter = client.get("/runs", params={"where": "nope>1"})
     assert bad_filter.status_code == 422 and "unknown column 'nope'" in bad_filter.json()["detail"]
     assert client.get("/runs", params={"order_by": "nope"}).status_code == 422
-    # FastAPI's own request validation keeps its list shape (documented in the app module)
+    # requests FastAPI cannot parse get the same one-line "where: message" detail
     shape = client.post("/runs", content=b"not json", headers={"content-type": "application/json"})
-    assert shape.status_code == 422 and isinstance(shape.json()["detail"], list)
+    assert shape.status_code == 422
+    assert shape.json()["detail"] == "request body: not valid JSON (Expecting value)"
+    nan = client.post("/runs", content=b"NaN", headers={"content-type": "application/json"})
+    assert nan.status_code == 422
+    assert nan.json()["detail"] == "request body: Input should be a valid dictionary (got nan)"
+    query = client.get("/runs", params={"limit": "x"})
+    assert query.status_code == 422
+    assert query.json()["detail"].startswith("query parameter limit: Input should be a valid")
 
 
 def test_unknown_ids_get_404_and_summary_only_replays_409(client: httpx.Client) -> None:
@@ -524,3 +531,49 @@ def test_loopback_detection() -> None:
 
     assert all(map(is_loopback, ["127.0.0.1", "localhost", "::1", "[::1]", "127.0.0.2"]))
     assert not any(map(is_loopback, ["0.0.0.0", "::", "192.168.1.4", "example.org"]))
+
+
+def _peak_mb(pid: int) -> float:
+    """Peak resident memory of a process (VmHWM, MB)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    raise AssertionError(f"no VmHWM for {pid}")
+
+
+def test_the_inputs_that_exhausted_the_machine_are_refused_in_bounded_memory(
+    server: Server, client: httpx.Client
+) -> None:
+    """The inputs a hostile-input campaign found (each took the server past 1-3 GB) are each
+    refused with a field-named 4xx, or accepted as a background job and cancelled; the server's
+    peak memory grows by less than 100 MB over all of them."""
+    client.post("/runs", json={"options": {"record": "summary"}})  # kernels loaded
+    before = _peak_mb(server.proc.pid)
+    for dt in (1e-300, 1e-8, 1e-6):
+        r = client.post("/runs", json={"options": {"record": "rate", "record_dt_s": dt}})
+        assert r.status_code == 422 and "record_dt_s" in r.json()["detail"], r.text
+    r = client.post("/runs", json={"delivery": {"omega_radps": [0, 1e300, 0]}})
+    assert r.status_code == 422 and r.json()["detail"].startswith("delivery.omega_radps[1]: ")
+    axis = {"start": 6.0, "stop": 9.0, "num": 10_000}
+    grid = {
+        "kind": "grid",
+        "axes": {"delivery.speed_mps": axis, "delivery.takeoff_angle_deg": axis},
+    }
+    r = client.post("/jobs", json={"sweep": grid})
+    assert r.status_code == 422 and r.json()["detail"].startswith("sweep: 100,000,000 runs")
+    speed = {"delivery.speed_mps": {"low": 6.0, "high": 9.0}}
+    for n in (10_000_000, 200_000):
+        r = client.post(
+            "/jobs", json={"sweep": {"kind": "random", "n": n, "seed": 1, "axes": speed}}
+        )
+        assert r.status_code == 202, r.text
+        assert client.post(f"/jobs/{r.json()['job_id']}/cancel").status_code in (200, 202)
+
+    def body() -> Iterator[bytes]:  # 200 MB, chunked (no Content-Length)
+        for _ in range(200):
+            yield b" " * 2**20
+
+    r = client.post("/runs", content=body(), headers={"content-type": "application/json"})
+    assert r.status_code == 413, r.text
+    grown = _peak_mb(server.proc.pid) - before
+    assert grown < 100, f"the server's peak memory grew by {grown:.0f} MB"

@@ -46,7 +46,8 @@ LIBRARY_FORMAT = "bowlrec-ball-library"
 LIBRARY_FORMAT_VERSION = 1
 #: format marker of one library entry's file (``balls/<name>/<version>.json``)
 BALL_FILE_FORMAT = "bowlrec-ball"
-_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 ._+\-]{0,99}$")
+#: a ball name, matched whole (``fullmatch``: a trailing newline is not part of a valid name)
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9 ._+\-]{0,99}")
 
 
 class BallNotFoundError(KeyError):
@@ -79,7 +80,7 @@ def parse_ball_ref(ref: str) -> tuple[str, int | None]:
     name, sep, version = ref.rpartition("@")
     if not sep:
         return ref, None
-    if not version.isdigit() or int(version) < 1:
+    if not re.fullmatch(r"[0-9]{1,9}", version) or int(version) < 1:
         raise ValueError(f"ball reference {ref!r}: the version after '@' must be an integer >= 1")
     return name, int(version)
 
@@ -157,7 +158,7 @@ class BallLibrary:
 
     def add(self, name: str, ball: AnyBall, note: str = "") -> tuple[BallEntry, bool]:
         """Store ``ball`` under ``name``; returns (entry, True if a new version was created)."""
-        if not _NAME.match(name):
+        if not _NAME.fullmatch(name):
             raise ValueError(
                 f"ball name {name!r}: use 1-100 letters, digits, spaces and . _ + - "
                 "(starting with a letter or digit; '@' separates the version)"
@@ -243,6 +244,8 @@ class BallLibrary:
 
     def remove(self, name: str, version: int) -> None:
         """Delete one version (runs that used it keep their copy of the spec)."""
+        if not _NAME.fullmatch(name):  # no such ball can exist (and no path outside balls/)
+            raise BallNotFoundError(f"no ball {name}@{version} in the library")
         with self.archive.writer_lock():
             con = self.archive.index_writer()
             path = self._dir(name) / f"{version}.json"

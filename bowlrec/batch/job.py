@@ -34,7 +34,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from bowlrec.spec._base import spec_error
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
@@ -73,6 +75,12 @@ __all__ = [
 ]
 
 JOB_FORMAT = "bowlrec-job"
+#: most runs one job may have (its sweeps are expanded lazily, chunk by chunk, so this bounds
+#: the job's run time and table, not memory)
+MAX_JOB_RUNS = 10_000_000
+#: most values (points x axes) of one Latin hypercube: its strata are permutations of all n
+#: points, so the (n, axes) unit array is held whole in every process (8 bytes per value)
+MAX_HYPERCUBE_VALUES = 20_000_000
 
 PathKey = str | int
 
@@ -119,7 +127,7 @@ class GridSweep(_JobModel):
     axes: dict[str, NonEmptyList | Linspace] = Field(min_length=1)
 
     def count(self) -> int:
-        return math.prod(len(_axis_values(a)) for a in self.axes.values())
+        return math.prod(a.num if isinstance(a, Linspace) else len(a) for a in self.axes.values())
 
     def columns(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Points ``start`` to ``stop`` as float64 columns by path (numeric axes only)."""
@@ -191,7 +199,7 @@ class RandomSweep(_JobModel):
     """``n`` points, each axis uniform in [low, high], from ``numpy.random.default_rng(seed)``."""
 
     kind: Literal["random"]
-    n: int = Field(ge=1, le=10_000_000)
+    n: int = Field(ge=1, le=MAX_JOB_RUNS)
     seed: int = Field(ge=0)
     axes: dict[str, Range] = Field(min_length=1)
 
@@ -214,12 +222,25 @@ class RandomSweep(_JobModel):
 
 
 class LatinHypercubeSweep(_JobModel):
-    """``n`` points of a seeded Latin hypercube in the axes' ranges (one point per stratum)."""
+    """``n`` points of a seeded Latin hypercube in the axes' ranges (one point per stratum);
+    n x (number of axes) at most 20,000,000 (the hypercube is held whole in memory)."""
 
     kind: Literal["lhs"]
-    n: int = Field(ge=1, le=10_000_000)
+    n: int = Field(ge=1, le=MAX_JOB_RUNS)
     seed: int = Field(ge=0)
     axes: dict[str, Range] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _fits_in_memory(self) -> LatinHypercubeSweep:
+        values = self.n * len(self.axes)
+        if values > MAX_HYPERCUBE_VALUES:
+            raise spec_error(
+                f"n = {self.n:,} points x {len(self.axes)} axes = {values:,} values; a Latin "
+                f"hypercube is held whole in memory, at most {MAX_HYPERCUBE_VALUES:,} values "
+                f"(n <= {MAX_HYPERCUBE_VALUES // len(self.axes):,} for {len(self.axes)} axes): "
+                "use fewer points or axes, or a random sweep"
+            )
+        return self
 
     def count(self) -> int:
         return self.n
@@ -273,7 +294,7 @@ class JobSpec(_JobModel):
     sweep: Sweep | list[Sweep] | None = Field(
         default=None,
         description="One sweep block or a list of blocks (their points are concatenated); "
-        "null: the base scene alone.",
+        f"null: the base scene alone. At most {MAX_JOB_RUNS:,} runs per job in all.",
     )
     record: Literal["summary", "trajectory", "scene"] = Field(
         default="summary",
@@ -299,6 +320,20 @@ class JobSpec(_JobModel):
                 f"formats = {self.formats} need samples: set record to 'trajectory' or 'scene'"
             )
         return self
+
+    @field_validator("sweep")
+    @classmethod
+    def _runs_bounded(cls, sweep: AnySweep | list[AnySweep] | None) -> Any:
+        """At most MAX_JOB_RUNS runs, counted without expanding anything."""
+        blocks = [] if sweep is None else sweep if isinstance(sweep, list) else [sweep]
+        total = sum(b.count() for b in blocks)
+        if total > MAX_JOB_RUNS:
+            parts = ", ".join(_describe_count(b) for b in blocks)
+            raise spec_error(
+                f"{total:,} runs ({parts}); at most {MAX_JOB_RUNS:,} runs per job: use fewer "
+                "points, or split the sweep into several jobs"
+            )
+        return sweep
 
     def blocks(self) -> list[AnySweep]:
         """The sweep blocks as a list (empty when there is no sweep)."""
@@ -358,6 +393,14 @@ class Point:
     block: int
     scene: int | None
     overrides: dict[str, Any]
+
+
+def _describe_count(block: AnySweep) -> str:
+    """``grid 10,000 x 10,000``, ``random 5``: a block's kind and how its count arises."""
+    if isinstance(block, GridSweep):
+        sizes = [a.num if isinstance(a, Linspace) else len(a) for a in block.axes.values()]
+        return f"grid {' x '.join(f'{s:,}' for s in sizes)}"
+    return f"{block.kind} {block.count():,}"
 
 
 def _axis_values(axis: list[Any] | Linspace) -> list[Any]:
@@ -464,6 +507,7 @@ def apply_override(data: dict[str, Any], path: str, value: Any) -> None:
 
 def load_job(path: str | Path) -> JobSpec:
     """Read and validate a job file (.json, .yaml, .yml); JobError with field-named messages."""
+    from bowlrec.scene_input import prefix_lines
     from bowlrec.spec import format_validation_error
     from bowlrec.spec.loading import read_mapping
 
@@ -475,9 +519,8 @@ def load_job(path: str | Path) -> JobSpec:
     try:
         return JobSpec.model_validate(data)
     except ValidationError as err:
-        raise JobError(
-            f"{p}: invalid job\n{format_validation_error(err).replace('scene', 'job', 1)}"
-        ) from err
+        text = format_validation_error(err).replace("scene", "job", 1)
+        raise JobError(prefix_lines(p, text)) from err
 
 
 def job_schema_text() -> str:
@@ -555,14 +598,14 @@ def _read_scene_mapping(entry: str | dict[str, Any], base_dir: Path, what: str) 
 
 def _full_mapping(raw: dict[str, Any], what: str) -> tuple[bool, dict[str, Any]]:
     """Validate a scene mapping and return (bowler?, every field as JSON values)."""
-    from bowlrec.scene_input import is_bowler
+    from bowlrec.scene_input import is_bowler, prefix_lines
     from bowlrec.spec import format_validation_error
 
     bowler = is_bowler(raw)
     try:
         model = _model(bowler).model_validate(raw)
     except ValidationError as err:
-        raise JobError(f"{what}: invalid scene\n{format_validation_error(err)}") from err
+        raise JobError(prefix_lines(what, format_validation_error(err))) from err
     return bowler, model.model_dump(mode="json")
 
 
@@ -666,7 +709,11 @@ def _named_balls(job: JobSpec, base_dir: Path) -> set[str]:
             refs.update(p["ball"] for p in block.points_ if isinstance(p.get("ball"), str))
         elif isinstance(block, ScenesSweep):
             for k, entry in enumerate(block.scenes):
-                data = _read_scene_mapping(entry, base_dir, f"sweep.scenes[{k}]")
+                data = (  # an inline scene is only looked at: no copy
+                    entry
+                    if isinstance(entry, dict)
+                    else _read_scene_mapping(entry, base_dir, f"sweep.scenes[{k}]")
+                )
                 if isinstance(data.get("ball"), str):
                     refs.add(data["ball"])
     return refs
@@ -736,6 +783,8 @@ def freeze_balls(job: JobSpec, ctx: JobContext) -> JobSpec:
     def pin(value: Any) -> Any:
         return ctx.balls[value][1] if isinstance(value, str) and value in ctx.balls else value
 
+    if not ctx.balls and job.ball is None:  # nothing to pin
+        return job
     data = job.model_dump(mode="json", by_alias=True)
     if job.ball is not None:
         data["ball"] = ctx.base_ref

@@ -13,8 +13,10 @@ Where a worker cannot reach the archive's files (a Dask cluster without the shar
 A kill loses at most the chunks in flight: sealed segments that were not yet registered are
 registered by the next writer (:meth:`~bowlrec.archive.Archive.recover`), and rerunning the job
 skips every archived run. Cancellation (an Event, set e.g. by SIGINT) stops submitting, keeps
-every run that finished and marks the rest ``cancelled``. A write that fails (a full disk) stops
-the batch the same way, and ``BatchResult.error`` says what happened.
+every run that finished, marks the runs before the last one reached ``cancelled`` and counts the
+rest as ``not_reached`` (the table ends with the last run reached, so stopping a job of millions
+of runs is immediate). A write that fails (a full disk) stops the batch the same way, and
+``BatchResult.error`` says what happened.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from .chunks import (
     run_chunk,
 )
 from .job import JobSpec, job_context
+from .lifeline import Lifeline, bind_worker, lifeline
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -69,29 +72,12 @@ RECORDED_CHUNK = 32
 STATUSES = ("ok", "archived", "failed", "cancelled")
 
 
-#: seconds between a pool worker's checks that the batch's process is alive
-PARENT_CHECK_S = 0.5
-
-
-def _worker_init(parent: int | None = None) -> None:
-    """Pool workers leave Ctrl-C to the parent (which stops the batch cleanly), and exit when
-    the batch's process ``parent`` is gone (killed): nothing would read their results, and the
-    next run of the job registers what they sealed."""
+def _worker_init(line: Lifeline | None = None) -> None:
+    """Pool workers leave Ctrl-C to the parent (which stops the batch cleanly), and die with the
+    fork server and with the batch's process (``line``): once that is gone (killed), nothing
+    would read their results, and the next run of the job registers what they sealed."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if parent is None:
-        return
-
-    def watch() -> None:
-        while True:
-            time.sleep(PARENT_CHECK_S)
-            try:
-                os.kill(parent, 0)
-            except ProcessLookupError:
-                os._exit(1)
-            except PermissionError:  # the pid was reused by another user's process
-                os._exit(1)
-
-    threading.Thread(target=watch, name="bowlrec-parent-watch", daemon=True).start()
+    bind_worker(line)
 
 
 # -- progress and results ---------------------------------------------------------------------
@@ -126,7 +112,8 @@ class BatchResult:
 
     tables: the table's chunks in job order (empty when they went to a ``sink``; see
     :mod:`bowlrec.batch.table` for the columns); param_columns: the parameter column names in
-    order; counts: rows per status (ok | archived | failed | cancelled); simulated: runs
+    order; counts: rows per status (ok | archived | failed | cancelled); not_reached: runs after
+    the last row, when the batch stopped early (they have no rows); simulated: runs
     simulated now; simulate_s: summed kernel time in the workers (s); write_s: time spent
     sealing and registering segments (s, workers and this process); elapsed_s: wall time (s).
     """
@@ -140,6 +127,8 @@ class BatchResult:
     simulate_s: float = 0.0
     write_s: float = 0.0
     replays: list[Path] = field(default_factory=list)
+    #: runs after the table's last row that were never reached (a cancelled or failed batch)
+    not_reached: int = 0
     #: why the batch stopped early when writing failed (e.g. a full disk); None otherwise
     error: str | None = None
 
@@ -255,12 +244,14 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
 
     n = workers or os.cpu_count() or 1
     ctx = multiprocessing.get_context("forkserver")
-    # the fork server imports and warms the kernels once; every worker forks from it ready
+    # the fork server imports and warms the kernels once; every worker forks from it ready.
+    # It, its workers and the resource tracker die with this process (see .lifeline)
     ctx.set_forkserver_preload(["bowlrec.batch.warm"])
+    line = lifeline()
 
     def make() -> Executor:
         return ProcessPoolExecutor(
-            max_workers=n, mp_context=ctx, initializer=_worker_init, initargs=(os.getpid(),)
+            max_workers=n, mp_context=ctx, initializer=_worker_init, initargs=(line,)
         )
 
     pool = _Workers(make(), n, make)
@@ -601,12 +592,16 @@ def _drive(
                 ranges.appendleft(span)  # its worker died: not run
             else:
                 settle(fut, span)
-        # after a failed write the runs not reached are failures that say why; after a
-        # cancellation they are "cancelled"
+        # the table ends with the last run reached: runs before it that did not run are rows
+        # (failures that say why after a failed write, else "cancelled"); the runs after it
+        # are only counted (a cancelled 10,000,000-run job writes no 10,000,000 rows)
         error = None if result.error is None else f"not archived: {result.error}"
-        for span in sorted(ranges):
-            status = "cancelled" if error is None else "failed"
-            orch.emit(span[0], _unrun(orch.ctx, *span, status, error))
+        end = max([orch.next_row, *(s + len(t) for s, t in orch.ready.items())])
+        for start, stop in sorted(ranges):
+            if start < end:
+                status = "cancelled" if error is None else "failed"
+                orch.emit(start, _unrun(orch.ctx, start, min(stop, end), status, error))
+            result.not_reached += max(0, stop - max(start, end))
     orch.report()
 
 

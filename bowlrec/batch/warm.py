@@ -1,7 +1,14 @@
 """Imported by a batch's fork server: loads the compiled kernels from the on-disk cache once, so
-every worker forked from it starts ready (no per-worker import or cache load)."""
+every worker forked from it starts ready (no per-worker import or cache load).
+
+It first makes the fork server exit as soon as the process that started it is gone, and its
+workers with it (:mod:`bowlrec.batch.lifeline`)."""
 
 from __future__ import annotations
+
+from .lifeline import guard_fork_server
+
+guard_fork_server()
 
 
 def _warm() -> None:

@@ -76,6 +76,9 @@ Coverstock = Literal[
 
 #: lever arm of the ABC/WIBC static-weight balance (Frohlich 2004, Sec. III A and Fig. 3) (m)
 FROHLICH_LEVER_ARM_M = 0.162
+#: the physical limits (bowlrec.spec.limits) in bowlers' units
+MAX_WEIGHT_LB = 220.0
+MAX_DIAMETER_IN = 78.0
 #: sqrt(2) - 1: diff / RG above which the principal moments break the triangle inequality
 _TRIANGLE_DIFF_RATIO = math.sqrt(2.0) - 1.0
 
@@ -144,9 +147,14 @@ class BowlerBall(SpecModel):
 
     name: str = Field(min_length=1, description="Ball name as the manufacturer prints it.")
     brand: str = Field(default="", description="Manufacturer.")
-    weight_lb: PositiveFloat = Field(description="Weight (lb); also the mass used (lb -> kg).")
+    weight_lb: PositiveFloat = Field(
+        le=MAX_WEIGHT_LB,
+        description=f"Weight (lb), in (0, {MAX_WEIGHT_LB:g}]; also the mass used (lb -> kg).",
+    )
     diameter_in: PositiveFloat = Field(
-        default=8.595, description="Diameter (in); USBC allows 8.500-8.595 in."
+        default=8.595,
+        le=MAX_DIAMETER_IN,
+        description=f"Diameter (in), in (0, {MAX_DIAMETER_IN:g}]; USBC allows 8.500-8.595 in.",
     )
     rg_in: PositiveFloat = Field(
         description="Published RG: the low radius of gyration, about the pin axis (in)."

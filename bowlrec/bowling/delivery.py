@@ -152,6 +152,11 @@ def mirror_delivery(delivery: Delivery, lane: BowlerLane) -> Delivery:
     )
 
 
+#: the physical limits (bowlrec.spec.limits) in bowlers' units, rounded down
+MAX_SPEED_MPH = 220.0
+MAX_REV_RATE_RPM = 9500.0
+
+
 class BowlerDelivery(SpecModel):
     """A delivery in tracking-system terms (mph, rpm, degrees, boards, ft); see the module doc
     for every zero and sign. Give the direction either as ``launch_angle_deg`` or as
@@ -163,11 +168,20 @@ class BowlerDelivery(SpecModel):
     )
     speed_mph: PositiveFloat = Field(
         default=17.0,
-        description="Speed of the ball's center at release (mph), > 0; 1 mph = 0.44704 m/s.",
+        le=MAX_SPEED_MPH,
+        description=(
+            f"Speed of the ball's center at release (mph), in (0, {MAX_SPEED_MPH:g}]; "
+            "1 mph = 0.44704 m/s."
+        ),
     )
     rev_rate_rpm: NonNegativeFloat = Field(
         default=300.0,
-        description="Rev rate |omega| at release (revolutions per minute), >= 0.",
+        le=MAX_REV_RATE_RPM,
+        description=(
+            f"Rev rate |omega| at release (revolutions per minute), in [0, "
+            f"{MAX_REV_RATE_RPM:g}]; a bowler scene needs > 0 (its layout is placed by the "
+            "spin axis)."
+        ),
     )
     axis_rotation_deg: FiniteFloat = Field(
         default=45.0,

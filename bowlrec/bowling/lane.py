@@ -46,6 +46,8 @@ HANDEDNESS: tuple[Handedness, ...] = ("right", "left")
 #: boards the seven arrows sit on (board centers), counted from the bowler's gutter
 ARROW_BOARDS: tuple[int, ...] = (5, 10, 15, 20, 25, 30, 35)
 #: lane width tolerance (in): USBC 41.5 in +- 0.5 in
+#: the physical limit (bowlrec.spec.limits) in feet, rounded down
+MAX_LANE_FT = 32_800.0
 LANE_WIDTH_MIN_IN = 41.0
 LANE_WIDTH_MAX_IN = 42.0
 #: Frohlich (2004) lane width (in)
@@ -62,7 +64,10 @@ class BowlerLane(SpecModel):
 
     length_ft: PositiveFloat = Field(
         default=LANE_LENGTH_FT,
-        description="Foul line to the head pin's center (ft); 60 ft by rule.",
+        le=MAX_LANE_FT,
+        description=(
+            f"Foul line to the head pin's center (ft), in (0, {MAX_LANE_FT:g}]; 60 ft by rule."
+        ),
     )
     width_in: float = Field(
         default=LANE_WIDTH_IN,

@@ -152,7 +152,14 @@ class IllegalBallError(ValueError):
     """The ball breaks the selected rules and simulating it was not explicitly allowed."""
 
     def __init__(self, report: LegalityReport) -> None:
-        super().__init__(f"{report}\n(pass allow_illegal=True to simulate an illegal ball anyway)")
+        broken = "; ".join(
+            f"{v.rule} {v.value:.6g} {v.unit} (limit {v.limit:.6g} {v.unit})"
+            for v in report.violations
+        )
+        super().__init__(
+            f"ball {report.ball_name!r} is illegal under rule set '{report.rule_set}': {broken}; "
+            "set allow_illegal to true to simulate it anyway"
+        )
         self.report = report
 
 

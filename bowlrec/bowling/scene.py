@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from bowlrec.spec import Options, Scene
-from bowlrec.spec._base import FiniteFloat, SpecModel, spec_error
+from bowlrec.spec._base import FiniteFloat, SpecModel, fmt, spec_error
 
 from .ball import BowlerBall, CenterOfMassMark, StaticWeights
 from .delivery import BowlerDelivery, hooking_delivery
@@ -90,6 +90,18 @@ class BowlerScene(SpecModel):
     allow_illegal: bool = Field(
         default=False, description="Simulate a ball that fails the rule set (reported)."
     )
+
+    @field_validator("delivery")
+    @classmethod
+    def _spinning(cls, delivery: BowlerDelivery) -> BowlerDelivery:
+        """The layout is placed by the spin axis, which a ball without spin does not have."""
+        if not delivery.rev_rate_rpm > 0.0:
+            raise spec_error(
+                f"rev_rate_rpm = {fmt(delivery.rev_rate_rpm)}: a bowler scene needs a spinning "
+                "ball (rev_rate_rpm > 0), because its layout (PAP) is placed by the spin axis; "
+                "for a ball without spin, write a physical scene"
+            )
+        return delivery
 
     @model_validator(mode="after")
     def _consistent(self) -> BowlerScene:

@@ -36,7 +36,11 @@ def interactive(quiet: bool) -> bool:
 
 
 def fail(message: str, code: int = 2) -> NoReturn:
-    typer.echo(f"error: {message}", err=True)
+    """Print ``error: message`` (each line printable: control characters escaped, long lines
+    cut) and exit with ``code``."""
+    from bowlrec.spec.errors import printable
+
+    typer.echo("error: " + "\n".join(printable(line) for line in message.split("\n")), err=True)
     raise typer.Exit(code)
 
 

@@ -19,16 +19,15 @@ app.add_typer(balls_app, name="balls")
 def _load_ball(path: Path) -> Any:
     """A ball from a file: a physical ball spec, a spec sheet in bowlers' units (it has
     ``weight_lb``), or the ``ball`` of a scene file (physical or bowler-language)."""
-    import yaml
-
     from bowlrec.archive.balls import parse_ball
+    from bowlrec.spec.loading import SpecFileError, read_mapping
 
     if not path.exists():
         fail(f"{path}: no such file")
     try:
-        data = yaml.safe_load(path.read_text())  # YAML is a superset of JSON
-    except yaml.YAMLError as err:
-        fail(f"{path}: not valid JSON/YAML ({err})")
+        data = read_mapping(path)
+    except (SpecFileError, OSError) as err:
+        fail(f"{path}: {err}")
     if isinstance(data, dict) and "ball" in data:
         data = data["ball"]
     return parse_ball(data or {})

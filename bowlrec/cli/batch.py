@@ -161,9 +161,10 @@ def batch(
     if not quiet:
         added = "simulated" if store is None else "new"
         typer.echo(
-            f"{result.n_rows} runs: {c['ok']} {added}, {c['archived']} already archived, "
-            f"{c['failed']} failed"
+            f"{result.n_rows + result.not_reached} runs: {c['ok']} {added}, "
+            f"{c['archived']} already archived, {c['failed']} failed"
             + (f", {c['cancelled']} not run" if c["cancelled"] else "")
+            + (f", {result.not_reached} not reached" if result.not_reached else "")
             + f" ({result.simulated} simulated in {result.elapsed_s:.1f} s)",
             err=True,
         )
@@ -181,8 +182,9 @@ def batch(
     if result.cancelled:
         if store is None:
             typer.echo(
-                f"interrupted: the table holds the {c['ok']} runs that finished (the rest are "
-                "'cancelled' rows; without an archive a rerun simulates everything again)",
+                f"interrupted: the table holds the {c['ok']} runs that finished (up to the last "
+                "run reached, the others are 'cancelled' rows; without an archive a rerun "
+                "simulates everything again)",
                 err=True,
             )
         else:

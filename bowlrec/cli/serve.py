@@ -1,9 +1,17 @@
-"""``bowlrec serve``: the HTTP service (FastAPI + uvicorn, imported only when it runs)."""
+"""``bowlrec serve``: the HTTP service (FastAPI + uvicorn, imported only when it runs).
+
+Before anything is served: a non-loopback host needs a token (or ``--insecure``), and that
+token must be at least 32 characters; the sockets are bound before "serving on" is printed
+(a port in use is one ``error:`` line, exit 2). The security model (token, cookie sessions,
+Host allow-list, Origin checks, body limit) is described in ``docs/service.md``.
+"""
 
 from __future__ import annotations
 
+import errno
 import ipaddress
 import os
+import socket
 from typing import Annotated
 
 import typer
@@ -12,6 +20,10 @@ from ._app import app
 from ._common import ArchiveOption, fail, open_archive
 
 DEFAULT_TOKEN_ENV = "BOWLREC_TOKEN"
+#: the default request body limit, MiB (``--max-body-mb``)
+DEFAULT_MAX_BODY_MB = 32.0
+#: the shortest token accepted on a non-loopback host
+MIN_TOKEN_LENGTH = 32
 
 
 def is_loopback(host: str) -> bool:
@@ -58,6 +70,20 @@ def serve(
             "bowlrec\\[dask]); default: 'scheduler' in the config file, if any.",
         ),
     ] = None,
+    allowed_host: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--allowed-host",
+            help="Also accept this name in the Host header of requests without the bearer "
+            "token (repeatable; loopback names and the bound IP are always accepted). Needed "
+            "when browsers reach the server by another name, e.g. behind 0.0.0.0 or in a "
+            "container.",
+        ),
+    ] = None,
+    max_body_mb: Annotated[
+        float,
+        typer.Option(help="Largest request body, in MiB (larger ones get 413).", min=0.0),
+    ] = DEFAULT_MAX_BODY_MB,
     log_level: Annotated[
         str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
     ] = "info",
@@ -72,6 +98,15 @@ def serve(
             f"refusing to serve {host} without a token: set ${token_env} (or choose another "
             "variable with --token-env), bind to 127.0.0.1, or pass --insecure"
         )
+    if token is not None and not is_loopback(host) and len(token) < MIN_TOKEN_LENGTH:
+        fail(
+            f"refusing to serve {host} with a short token: ${token_env} must be at least "
+            f"{MIN_TOKEN_LENGTH} characters (it has {len(token)}); make one with python -c "
+            "'import secrets; print(secrets.token_urlsafe(32))'"
+        )
+    if max_body_mb <= 0:
+        fail("--max-body-mb must be greater than 0")
+    max_body_bytes = int(max_body_mb * 1024 * 1024)
     try:
         import uvicorn
 
@@ -79,18 +114,89 @@ def serve(
     except ImportError as err:
         fail(f"bowlrec serve needs the service extra: pip install 'bowlrec[service]' ({err})")
     from bowlrec.service.jobs import JobsLockedError
+    from bowlrec.service.security import host_name
 
+    allowed = list(allowed_host or [])
+    for name in allowed:
+        if host_name(name) is None:
+            fail(f"--allowed-host {name!r}: not a host name (give NAME or an IP, no scheme)")
+    if bound_ip(host) is not None:
+        allowed.append(host.strip("[]"))  # the literal address the server is reached at
     store = open_archive(archive)
     try:
         if scheduler is None:
             from bowlrec.archive.location import config_value
 
             scheduler = config_value("scheduler")
-        application = create_app(store.root, token, job_workers=job_workers, scheduler=scheduler)
+        application = create_app(
+            store.root,
+            token,
+            job_workers=job_workers,
+            scheduler=scheduler,
+            max_body_bytes=max_body_bytes,
+            allowed_hosts=allowed,
+        )
     except JobsLockedError as err:
         fail(str(err))
+    try:
+        sockets = bind_sockets(host, port)
+    except OSError as err:
+        fail(f"cannot listen on {host}:{port}: {err.strerror or err}")
+    bound_port = sockets[0].getsockname()[1]
+    shown = f"[{host}]" if ":" in host and not host.startswith("[") else host
     auth = f"token from ${token_env}" if token else "no token"
     typer.echo(
-        f"bowlrec: serving {store.root} on http://{host}:{port} ({auth}); docs at /docs", err=True
+        f"bowlrec: serving {store.root} on http://{shown}:{bound_port} ({auth}); docs at /docs",
+        err=True,
     )
-    uvicorn.run(application, host=host, port=port, log_level=log_level)
+    config = uvicorn.Config(application, host=host, port=bound_port, log_level=log_level)
+    uvicorn.Server(config).run(sockets=sockets)
+
+
+def bound_ip(host: str) -> str | None:
+    """The host as an IP address when it is one and not a wildcard (0.0.0.0, ::)."""
+    try:
+        address = ipaddress.ip_address(host.strip("[]"))
+    except ValueError:
+        return None
+    return None if address.is_unspecified else str(address)
+
+
+def bind_sockets(host: str, port: int) -> list[socket.socket]:
+    """Listening-ready sockets for every address of ``host`` (as asyncio would bind them);
+    OSError when one cannot be bound (the others are closed)."""
+    infos = socket.getaddrinfo(
+        host.strip("[]") or None,
+        port,
+        type=socket.SOCK_STREAM,
+        flags=socket.AI_PASSIVE,
+    )
+    sockets: list[socket.socket] = []
+    seen: set[tuple[int, object]] = set()
+    try:
+        for family, kind, proto, _, address in infos:
+            if (family, address) in seen:
+                continue
+            seen.add((family, address))
+            sock = socket.socket(family, kind, proto)
+            sockets.append(sock)
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            if family == socket.AF_INET6:
+                sock.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+            if port == 0 and len(sockets) > 1:  # every address on the first one's port
+                address = (address[0], sockets[0].getsockname()[1], *address[2:])
+            try:
+                sock.bind(address)
+            except OSError as err:
+                if family == socket.AF_INET6 and err.errno == errno.EADDRNOTAVAIL:
+                    sockets.pop().close()  # IPv6 not enabled here: like asyncio, skip it
+                    continue
+                raise
+            sock.set_inheritable(True)
+        if not sockets:
+            raise OSError(errno.EADDRNOTAVAIL, f"no address of {host} can be bound")
+    except OSError:
+        for sock in sockets:
+            sock.close()
+        raise
+    return sockets

@@ -1,31 +1,44 @@
 """The FastAPI application: scenes, runs and their files, the ball library and jobs.
 
-Errors the service raises itself are ``{"detail": "<message>"}``: 401 (missing or wrong bearer
-token), 404 (unknown run, ball or job), 409 (the request conflicts with the state: replay of a
-summary-only run, a stored run found damaged -- the message names the run and its segment; `bowlrec
-runs repair` quarantines it --, job not cancellable/resumable), 507 (the archive could not be
-written, e.g. a full disk; nothing stored was lost), 422 (an invalid scene, ball or job spec -- one
-``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
--- or a bad run filter), 501 (an optional format library is not installed). Malformed requests
-that FastAPI rejects before they reach the service (a body that is not JSON, a query parameter of
-the wrong type) keep FastAPI's own 422 shape ``{"detail": [{"loc": ..., "msg": ...}]}``.
+Errors the service raises itself are ``{"detail": "<message>"}``, one line unless noted: 400 (a
+``Host`` that is not allowed -- DNS-rebinding protection; the message says how to allow it),
+401 (missing or wrong bearer token, and no valid session cookie), 403 (a state-changing
+request from another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's), 404 (unknown
+run, ball or job), 409 (the request conflicts with the state: replay of a summary-only run, a
+stored run found damaged -- the message names the run and its segment; `bowlrec runs repair`
+quarantines it --, job not cancellable/resumable, a job whose record is damaged), 413 (the
+request body exceeds the limit, ``serve --max-body-mb``), 507 (the archive could not be
+written, e.g. a full disk; nothing stored was lost), 422 (an invalid scene, ball or job spec --
+one ``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes
+them -- or a bad run filter), 501 (an optional format library is not installed). Messages
+never name a server path (the archive's root reads ``ARCHIVE``, other paths ``<path>``), and
+control characters in them are escaped. Malformed requests (a body that is not a JSON
+object, a query parameter of the wrong type) are 422 with the same lines: ``request body: not
+valid JSON (...)``, ``query parameter limit: ...``. Bad input is never 5xx.
+
+Requests carrying the bearer token skip the Host and Origin checks; a browser authenticates
+with a cookie session (``POST /session``). See :mod:`bowlrec.service.security` and
+``docs/service.md``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import hmac
 import logging
+import math
 import os
 import threading
-from collections.abc import AsyncIterator, Callable
+from collections.abc import AsyncIterator, Callable, Iterable
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Depends, FastAPI, HTTPException, Query, Request, Response
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import FileResponse, JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from bowlrec.archive import (
     Archive,
@@ -36,6 +49,7 @@ from bowlrec.archive import (
 )
 from bowlrec.archive.index import IndexError_
 
+from .body_limit import DEFAULT_MAX_BODY_BYTES, BodyLimitMiddleware
 from .jobs import JobConflictError, JobManager, JobNotFoundError
 from .models import (
     BallAddRequest,
@@ -47,10 +61,23 @@ from .models import (
     JobStatus,
     RunList,
     RunRow,
+    SessionClosed,
+    SessionInfo,
+    SessionRequest,
     SpecError,
     SubmitResponse,
     parse_ball_spec,
     parse_scene_spec,
+)
+from .redact import Redactor
+from .security import (
+    COOKIE_NAME,
+    DEFAULT_SESSION_TTL_S,
+    SecurityMiddleware,
+    SessionStore,
+    bearer_matches,
+    host_name,
+    token_matches,
 )
 
 __all__ = ["create_app"]
@@ -66,7 +93,7 @@ FILE_KINDS: dict[str, tuple[str, str]] = {
 FileKind = Literal["hdf5", "mcap", "rrd"]
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorResponse} for code in (401, 404, 409, 422, 501, 507)
+    code: {"model": ErrorResponse} for code in (400, 401, 403, 404, 409, 413, 422, 501, 507)
 }
 
 SCENE_EXAMPLE = {
@@ -115,7 +142,13 @@ JOB_EXAMPLE = {
 class _State:
     """What the endpoints share: the archive, the jobs and per-file generation locks."""
 
-    def __init__(self, archive: Archive, jobs: JobManager, token: str | None) -> None:
+    def __init__(
+        self,
+        archive: Archive,
+        jobs: JobManager,
+        token: str | None,
+        session_ttl_s: float = DEFAULT_SESSION_TTL_S,
+    ) -> None:
         from bowlrec.archive.group_commit import GroupCommitter
 
         self.archive = archive
@@ -123,7 +156,13 @@ class _State:
         #: seals the summary-only runs of concurrent POST /runs requests together
         self.commits = GroupCommitter(archive)
         self.token = token
+        self.sessions = SessionStore(session_ttl_s)
+        #: server paths out of error details
+        self.redact = Redactor(archive.root)
         self.cache_dir = archive.root / "cache"
+        #: recorded simulations at once: each may hold up to 2,000,000 samples (about 0.75 GB,
+        #: benchmarks/results/hardening.md), so the server's memory is bounded by the core count
+        self.recordings = threading.BoundedSemaphore(os.cpu_count() or 1)
         self._file_locks: dict[Path, threading.Lock] = {}
         self._mutex = threading.Lock()
 
@@ -144,16 +183,20 @@ def _check_token(
     request: Request,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> None:
-    token = _state(request).token
-    if token is None:
+    """The bearer token or a valid session cookie (``POST /session``); 401 otherwise."""
+    state = _state(request)
+    if state.token is None:
         return
-    given = credentials.credentials if credentials is not None else ""
-    if not hmac.compare_digest(given.encode(), token.encode()):
-        raise HTTPException(
-            401,
-            "missing or wrong bearer token (send 'Authorization: Bearer <token>')",
-            headers={"WWW-Authenticate": "Bearer"},
-        )
+    if bearer_matches(request.headers.get("authorization"), state.token):
+        return
+    if state.sessions.valid(request.cookies.get(COOKIE_NAME)):
+        return
+    raise HTTPException(
+        401,
+        "missing or wrong bearer token (send 'Authorization: Bearer <token>', or open a "
+        "cookie session with POST /session)",
+        headers={"WWW-Authenticate": "Bearer"},
+    )
 
 
 StateDep = Annotated[_State, Depends(_state)]
@@ -182,7 +225,11 @@ def submit_scene(
     segment (group commit)."""
     try:
         parsed = parse_scene_spec(scene, state.archive.balls)
-        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref, group=state.commits)
+        recorded = parsed.scene.options.record != "summary"
+        with state.recordings if recorded else contextlib.nullcontext():
+            result = state.archive.simulate(
+                parsed.scene, ball_ref=parsed.ball_ref, group=state.commits
+            )
     except (SpecError, ValueError) as err:  # ValueError: a scene that cannot be resolved
         raise _bad(422, str(err)) from None
     if result.trajectory is None:  # pragma: no cover - simulate always returns it
@@ -437,6 +484,86 @@ def resume_job(state: StateDep, job_id: str) -> JobStatus:
     return _job_call(state.jobs.resume, job_id)
 
 
+# -- cookie sessions -----------------------------------------------------------------------------
+
+sessions = APIRouter(prefix="/session", tags=["service"], responses=_ERRORS)
+
+
+def _secure(request: Request) -> bool:
+    return request.url.scheme == "https"
+
+
+@sessions.post("", response_model=SessionInfo)
+def open_session(
+    state: StateDep,
+    request: Request,
+    response: Response,
+    body: Annotated[SessionRequest | None, Body()] = None,
+) -> SessionInfo:
+    """Open a cookie session with the token, sent as ``Authorization: Bearer <token>`` or in
+    the body ``{"token": "..."}``: the answer sets the ``bowlrec_session`` cookie (HttpOnly,
+    SameSite=Strict, Path=/, Secure over https), which then authenticates requests like the
+    bearer header (for what a page cannot add a header to: iframes, images, download links,
+    EventSource). A server without a token needs no session: ``auth`` is false and no cookie
+    is set. 401 for a missing or wrong token."""
+    if state.token is None:
+        return SessionInfo(auth=False, expires_at=None)
+    given = body.token if body is not None else None
+    if not (
+        bearer_matches(request.headers.get("authorization"), state.token)
+        or (given is not None and token_matches(given, state.token))
+    ):
+        raise HTTPException(
+            401,
+            "missing or wrong token (send 'Authorization: Bearer <token>' or {\"token\": ...})",
+            headers={"WWW-Authenticate": "Bearer"},
+        )
+    state.sessions.close(request.cookies.get(COOKIE_NAME))  # a new ID each time
+    session_id, expires = state.sessions.open()
+    response.set_cookie(
+        COOKIE_NAME,
+        session_id,
+        max_age=max(1, math.ceil(state.sessions.ttl_s)),
+        path="/",
+        secure=_secure(request),
+        httponly=True,
+        samesite="strict",
+    )
+    when = datetime.fromtimestamp(expires, UTC).isoformat(timespec="seconds")
+    return SessionInfo(auth=True, expires_at=when)
+
+
+@sessions.delete("", response_model=SessionClosed)
+def close_session(state: StateDep, request: Request, response: Response) -> SessionClosed:
+    """Close the session of the request's cookie (if any) and clear the cookie."""
+    closed = state.sessions.close(request.cookies.get(COOKIE_NAME))
+    response.delete_cookie(
+        COOKIE_NAME, path="/", secure=_secure(request), httponly=True, samesite="strict"
+    )
+    return SessionClosed(closed=closed)
+
+
+def request_error_text(err: RequestValidationError) -> str:
+    """One ``where: message`` line per error of a request FastAPI could not parse: ``request
+    body`` (not JSON, or not an object), ``query parameter limit``, ``path parameter ...``."""
+    from bowlrec.spec.errors import format_errors
+
+    places = {"body": "request body", "query": "query parameter", "path": "path parameter"}
+    details = []
+    for e in err.errors():
+        loc = tuple(e.get("loc", ()))
+        head = places.get(str(loc[0]), str(loc[0])) if loc else "request"
+        rest = tuple(p for p in loc[1:] if not isinstance(p, int) or e["type"] != "json_invalid")
+        msg = str(e.get("msg", "invalid"))
+        if e["type"] == "json_invalid":
+            reason = (e.get("ctx") or {}).get("error")
+            msg = f"not valid JSON ({reason})" if reason else "not valid JSON"
+        name = head if not rest or head != "query parameter" else f"{head} {rest[0]}"
+        rest = rest if head != "query parameter" else rest[1:]
+        details.append({**e, "loc": (name, *rest), "msg": msg})
+    return format_errors(details)
+
+
 # -- the app -------------------------------------------------------------------------------------
 
 
@@ -458,21 +585,39 @@ def create_app(
     warm_up: bool = True,
     job_workers: int = 0,
     scheduler: str | None = None,
+    max_body_bytes: int | None = DEFAULT_MAX_BODY_BYTES,
+    allowed_hosts: Iterable[str] = (),
+    session_ttl_s: float = DEFAULT_SESSION_TTL_S,
 ) -> FastAPI:
     """The service for the archive at ``archive_dir`` (created if missing).
 
     Raises :class:`~bowlrec.service.jobs.JobsLockedError` when another live server uses the
-    archive. ``token``: when given, every request except ``/health`` and the docs needs
-    ``Authorization: Bearer <token>`` (401 otherwise). ``warm_up`` loads the kernels at
-    start-up so the first submission is not slower than the rest. Jobs simulate in the
-    server process (``job_workers`` 0), a local pool of ``job_workers`` processes, or on the
-    dask.distributed cluster at ``scheduler``.
+    archive. ``token``: when given, every request except ``/health``, the docs and ``POST
+    /session`` needs ``Authorization: Bearer <token>`` or the cookie of a session opened with
+    ``POST /session`` (401 otherwise). ``warm_up`` loads the kernels at start-up so the first
+    submission is not slower than the rest. Jobs simulate in the server process
+    (``job_workers`` 0), a local pool of ``job_workers`` processes, or on the dask.distributed
+    cluster at ``scheduler``.
+
+    ``max_body_bytes``: request bodies longer than this get 413 (None: no limit; default 32
+    MiB). ``allowed_hosts``: ``Host`` names accepted besides the loopback ones (requests
+    without the bearer token naming another host get 400). ``session_ttl_s``: the lifetime of
+    a cookie session. Raises ValueError for an allowed host that is not a host name.
     """
     import bowlrec
 
+    hosts = list(allowed_hosts)
+    for entry in hosts:
+        if host_name(entry) is None:
+            raise ValueError(f"not a host name: {entry!r}")
+    if max_body_bytes is not None and max_body_bytes < 0:
+        raise ValueError("max_body_bytes must be >= 0 (or None: no limit)")
     archive = Archive(archive_dir)
     state = _State(
-        archive, JobManager(archive, workers=job_workers, scheduler=scheduler), token or None
+        archive,
+        JobManager(archive, workers=job_workers, scheduler=scheduler),
+        token or None,
+        session_ttl_s,
     )
     state.jobs.open()  # fails now (JobsLockedError) if another server runs this archive's jobs
 
@@ -499,22 +644,49 @@ def create_app(
     secured = [Depends(_check_token)]
     for router in (runs, balls, jobs):
         app.include_router(router, dependencies=secured)
+    app.include_router(sessions)
+    if max_body_bytes is not None:
+        app.add_middleware(BodyLimitMiddleware, max_bytes=max_body_bytes)
+    # added last: the outermost layer, before the body is read
+    app.add_middleware(SecurityMiddleware, token=state.token, allowed_hosts=hosts)
 
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> Health:
-        """Liveness and the run count; never needs the token."""
+        """Liveness and the run count; never needs the token (the Host check applies)."""
         return Health(version=bowlrec.__version__, runs=len(archive), auth=state.token is not None)
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http_error(request: Request, err: StarletteHTTPException) -> Response:
+        detail = state.redact(err.detail) if isinstance(err.detail, str) else err.detail
+        if err.status_code in (204, 304):  # pragma: no cover - the service raises none
+            return Response(status_code=err.status_code, headers=err.headers)
+        return JSONResponse({"detail": detail}, status_code=err.status_code, headers=err.headers)
+
+    @app.exception_handler(RequestValidationError)
+    async def _malformed(request: Request, err: RequestValidationError) -> JSONResponse:
+        # a body that is not a JSON object, or a query parameter of the wrong type: the same
+        # "field: message" lines as an invalid spec (FastAPI's list would echo a NaN input,
+        # which JSON cannot carry)
+        return JSONResponse({"detail": state.redact(request_error_text(err))}, status_code=422)
 
     @app.exception_handler(SpecError)
     async def _spec_error(request: Request, err: SpecError) -> JSONResponse:
-        return JSONResponse({"detail": str(err)}, status_code=422)
+        return JSONResponse({"detail": state.redact(str(err))}, status_code=422)
 
     @app.exception_handler(RunDamagedError)
     async def _damaged(request: Request, err: RunDamagedError) -> JSONResponse:
-        return JSONResponse({"detail": str(err)}, status_code=409)
+        return JSONResponse({"detail": state.redact(str(err))}, status_code=409)
 
     @app.exception_handler(ArchiveWriteError)
     async def _unwritable(request: Request, err: ArchiveWriteError) -> JSONResponse:
-        return JSONResponse({"detail": str(err)}, status_code=507)
+        return JSONResponse({"detail": state.redact(str(err))}, status_code=507)
+
+    @app.exception_handler(Exception)
+    async def _internal(request: Request, err: Exception) -> JSONResponse:
+        # logged (with the traceback) by the server; the client gets no server detail
+        return JSONResponse(
+            {"detail": "internal server error (the server's log has the details)"},
+            status_code=500,
+        )
 
     return app

@@ -19,6 +19,11 @@ skipped, never simulated twice, so a finished run is neither lost nor duplicated
 
 One server per archive runs jobs: the manager holds an exclusive lock on ``jobs/.lock`` for its
 lifetime (released by the OS when the process dies).
+
+A bad file never disables the service: records are validated when read (:class:`StoredRecord`),
+and a job whose record is missing, truncated or invalid, or whose spec file is missing, is
+logged and listed with status ``damaged`` and a one-line reason in ``error``; cancelling or
+resuming it is a conflict (409). Job errors and failure rows are reported without server paths.
 """
 
 from __future__ import annotations
@@ -37,14 +42,18 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import IO, TYPE_CHECKING, Any
 
-from bowlrec.archive import Archive
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from bowlrec.archive import Archive, ArchiveWriteError
 from bowlrec.archive.run_id import RUN_ID_LENGTH
+from bowlrec.batch.job import MAX_JOB_RUNS
 from bowlrec.sinks.atomic import atomic_path, remove_stale_parts
 
 if TYPE_CHECKING:
     from bowlrec.batch import ChunkTable, JobSpec
 
-from .models import JobFailure, JobStatus, JobStatusName, SpecError
+from .models import JobFailure, JobStatus, JobStatusName, SpecError, StoredJobStatus
+from .redact import Redactor
 
 __all__ = ["JobConflictError", "JobManager", "JobNotFoundError", "JobsLockedError", "parse_job"]
 
@@ -69,6 +78,14 @@ class JobConflictError(RuntimeError):
 
 class JobsLockedError(RuntimeError):
     """Another live server runs this archive's jobs."""
+
+
+class _DamagedRecord(Exception):
+    """A job's files cannot be used: the reason, and the status to list it with."""
+
+    def __init__(self, reason: str, status: JobStatus) -> None:
+        super().__init__(reason)
+        self.reason, self.status = reason, status
 
 
 def _now() -> str:
@@ -159,6 +176,51 @@ class JobRecord:
         return sum(1 for r in run_ids if r is not None and r in present)
 
 
+class StoredRecord(BaseModel):
+    """What a job record file must hold (types strict: a record is written by this module, so
+    anything else is damage). Unknown keys are ignored (``run_ids`` of older records)."""
+
+    model_config = ConfigDict(extra="ignore", strict=True)
+
+    job_id: str = Field(pattern=r"^[0-9a-f]{1,64}$")
+    name: str
+    status: StoredJobStatus
+    total: int = Field(ge=0, le=MAX_JOB_RUNS)
+    created_at: str
+    updated_at: str
+    done: int = Field(0, ge=0)
+    failed: int = Field(0, ge=0)
+    skipped: int = Field(0, ge=0)
+    error: str | None = None
+    failures: list[JobFailure] = Field(default_factory=list)
+
+    def to_record(self) -> JobRecord:
+        data = self.model_dump()
+        data["failures"] = [f.model_dump() for f in self.failures]
+        return JobRecord(**data)
+
+
+def _reason(err: ValidationError) -> str:
+    """A validation error as one line: ``field: message; ...`` (at most three)."""
+    parts = []
+    for e in err.errors()[:3]:
+        loc = ".".join(str(p) for p in e["loc"])
+        parts.append(f"{loc}: {e['msg']}" if loc else str(e["msg"]))
+    more = len(err.errors()) - 3
+    return "; ".join(parts) + (f"; and {more} more" if more > 0 else "")
+
+
+def _mtime_iso(*paths: Path) -> str:
+    for path in paths:
+        try:
+            return datetime.fromtimestamp(path.stat().st_mtime, UTC).isoformat(
+                timespec="milliseconds"
+            )
+        except OSError:
+            continue
+    return _now()
+
+
 class JobManager:
     """Submits, runs (one job at a time, FIFO), cancels, resumes and reports jobs.
 
@@ -184,6 +246,9 @@ class JobManager:
         self.dir.mkdir(parents=True, exist_ok=True)
         self._lock_file: IO[str] | None = None
         self._records: dict[str, JobRecord] = {}
+        #: jobs whose files are damaged: their status as reported (``damaged``, the reason)
+        self._damaged: dict[str, JobStatus] = {}
+        self._redact = Redactor(archive.root)
         self._cancel: dict[str, threading.Event] = {}
         self._mutex = threading.Lock()
         self._queue: queue.Queue[str | None] = queue.Queue()
@@ -215,22 +280,111 @@ class JobManager:
         repaired = self.archive.recover()
         if any(repaired.values()):
             log.info("archive repaired after an unclean stop: %s", repaired)
-        for path in sorted(self.dir.glob("*.json")):
-            if path.name.endswith(".spec.json"):
-                continue
+        for job_id in self._job_ids_on_disk():
             try:
-                data = json.loads(path.read_text())
-                data.pop("run_ids", None)  # records that kept the run IDs inline
-                rec = JobRecord(**data)
-            except (OSError, ValueError, TypeError) as err:
-                log.warning("skipping unreadable job record %s: %s", path, err)
+                rec = self._load(job_id)
+            except _DamagedRecord as damaged:
+                log.warning("job %s is damaged: %s", job_id, damaged.reason)
+                self._damaged[job_id] = damaged.status
                 continue
             if rec.status in ("queued", "running"):
                 rec.status = "interrupted"
                 rec.done = rec.archived(self.archive, self._run_ids(rec))
                 rec.updated_at = _now()
-                self._persist(rec)
+                try:
+                    self._persist(rec)
+                except ArchiveWriteError as err:  # reported as interrupted all the same
+                    log.warning("job %s: %s", job_id, err)
             self._records[rec.job_id] = rec
+
+    def _job_ids_on_disk(self) -> builtins.list[str]:
+        """IDs of the jobs that have any file in ``jobs/``: a record, a spec or a runs file."""
+        ids: set[str] = set()
+        for path in self.dir.iterdir():
+            name = path.name
+            if name.startswith(".") or not path.is_file():
+                continue
+            for suffix in (".spec.json", ".json", ".runs"):
+                if name.endswith(suffix) and len(name) > len(suffix):
+                    ids.add(name[: -len(suffix)])
+                    break
+        return sorted(ids)
+
+    def _load(self, job_id: str) -> JobRecord:
+        """The job's validated record; :class:`_DamagedRecord` when it cannot be used."""
+        path = self.dir / f"{job_id}.json"
+        spec = self._spec_path(job_id)
+        where = f"jobs/{job_id}.json"
+        try:
+            raw = path.read_bytes()
+        except FileNotFoundError:
+            what = "its spec" if spec.exists() else "only its runs file"
+            raise self._damaged_record(
+                job_id, f"record {where} is missing ({what} is left)"
+            ) from None
+        except OSError as err:
+            raise self._damaged_record(
+                job_id, f"record {where} is unreadable ({err.strerror})"
+            ) from None
+        try:
+            stored = StoredRecord.model_validate_json(raw)
+        except ValidationError as err:
+            raise self._damaged_record(job_id, f"record {where}: {_reason(err)}", raw) from None
+        if stored.job_id != job_id:
+            raise self._damaged_record(
+                job_id, f"record {where} names another job ({stored.job_id})", raw
+            )
+        rec = stored.to_record()
+        if not spec.exists():
+            raise self._damaged_record(
+                job_id, f"job spec jobs/{job_id}.spec.json is missing", raw, rec
+            )
+        return rec
+
+    def _damaged_record(
+        self, job_id: str, reason: str, raw: bytes = b"", rec: JobRecord | None = None
+    ) -> _DamagedRecord:
+        """What is known of a damaged job, for its listing: the record's fields that are
+        readable, else the spec's name, else nothing."""
+        name, total, created = "", 0, ""
+        if rec is not None:
+            name, total, created = rec.name, rec.total, rec.created_at
+        else:
+            try:
+                data = json.loads(raw) if raw else None
+            except ValueError:
+                data = None
+            if isinstance(data, dict):
+                name = data["name"] if isinstance(data.get("name"), str) else ""
+                if type(data.get("total")) is int and 0 <= data["total"] <= MAX_JOB_RUNS:
+                    total = data["total"]
+                created = data["created_at"] if isinstance(data.get("created_at"), str) else ""
+            if not name:
+                name = self._spec_name(job_id)
+        paths = (self.dir / f"{job_id}.json", self._spec_path(job_id), self._runs_path(job_id))
+        created = created or _mtime_iso(*paths)
+        status = JobStatus(
+            job_id=job_id,
+            name=name,
+            status="damaged",
+            total=total,
+            done=rec.done if rec is not None else 0,
+            failed=rec.failed if rec is not None else 0,
+            skipped=rec.skipped if rec is not None else 0,
+            created_at=created,
+            updated_at=_mtime_iso(*paths),
+            error=self._redact(reason),
+            resumable=False,
+        )
+        return _DamagedRecord(reason, status)
+
+    def _spec_name(self, job_id: str) -> str:
+        try:
+            data = json.loads(self._spec_path(job_id).read_bytes())
+            name = data["job"]["name"]
+        except (OSError, ValueError, KeyError, TypeError):
+            return ""
+        return name if isinstance(name, str) else ""
 
     def start(self) -> None:
         """Open (if not yet) and start the worker thread."""
@@ -269,38 +423,65 @@ class JobManager:
             job = freeze_balls(job, job_context(job, balls=self.archive.balls))
         except JobError as err:
             raise SpecError(str(err)) from None
+        total = job.count()  # at most MAX_JOB_RUNS: JobSpec checks it
         now = _now()
         rec = JobRecord(
             job_id=uuid.uuid4().hex[:16],
             name=job.name,
             status="queued",
-            total=job.count(),
+            total=total,
             created_at=now,
             updated_at=now,
         )
-        with atomic_path(self._spec_path(rec.job_id)) as tmp:
-            tmp.write_text(json.dumps({"job": job.model_dump(mode="json", by_alias=True)}))
+        try:
+            with atomic_path(self._spec_path(rec.job_id)) as tmp:
+                tmp.write_text(json.dumps({"job": job.model_dump(mode="json", by_alias=True)}))
+        except OSError as err:
+            raise ArchiveWriteError(
+                f"could not store the job ({err.strerror or err}); nothing was queued"
+            ) from None
         with self._mutex:
             self._records[rec.job_id] = rec
             self._cancel[rec.job_id] = threading.Event()
             self._persist(rec)
         self._queue.put(rec.job_id)
-        return rec.to_status()
+        return self._status(rec)
 
     def get(self, job_id: str, with_runs: bool = True) -> JobStatus:
         with self._mutex:
+            if job_id in self._damaged:
+                return self._damaged[job_id]
             rec = self._record(job_id)
-            return rec.to_status(with_runs, self._run_ids(rec) if with_runs else None)
+            return self._status(rec, with_runs)
 
     def list(self) -> builtins.list[JobStatus]:
-        """Every job, newest first (without the per-run IDs)."""
+        """Every job, newest first (without the per-run IDs); damaged ones included."""
         with self._mutex:
-            recs = sorted(self._records.values(), key=lambda r: r.created_at, reverse=True)
-            return [r.to_status() for r in recs]
+            out = [self._status(r) for r in self._records.values()]
+            out.extend(self._damaged.values())
+        return sorted(out, key=lambda s: (s.created_at, s.job_id), reverse=True)
+
+    def _status(self, rec: JobRecord, with_runs: bool = False) -> JobStatus:
+        """The record as reported: its errors without server paths."""
+        status = rec.to_status(with_runs, self._run_ids(rec) if with_runs else None)
+        if status.error is not None:
+            status.error = self._redact(status.error)
+        for failure in status.failures:
+            failure.error = self._redact(failure.error)
+        return status
+
+    def _refuse_damaged(self, job_id: str, verb: str) -> None:
+        damaged = self._damaged.get(job_id)
+        if damaged is not None:
+            raise JobConflictError(
+                f"job {job_id} is damaged and cannot be {verb} ({damaged.error}); restore "
+                "or remove its files in the archive's jobs/ directory and restart the server"
+            )
 
     def cancel(self, job_id: str) -> JobStatus:
         """Stop a queued or running job after the runs in flight (finished runs stay)."""
         with self._mutex:
+            self._refuse_damaged(job_id, "cancelled")
             rec = self._record(job_id)
             if rec.status not in ("queued", "running"):
                 raise JobConflictError(
@@ -309,12 +490,13 @@ class JobManager:
             self._cancel.setdefault(job_id, threading.Event()).set()
             if rec.status == "queued":
                 self._set(rec, "cancelled")
-            return rec.to_status()
+            return self._status(rec)
 
     def resume(self, job_id: str) -> JobStatus:
         """Queue an interrupted, cancelled or failed job (or a done one with failed runs)
         again; runs already archived are skipped."""
         with self._mutex:
+            self._refuse_damaged(job_id, "resumed")
             rec = self._record(job_id)
             if rec.status in ("queued", "running"):
                 raise JobConflictError(f"job {job_id} is already {rec.status}")
@@ -322,8 +504,9 @@ class JobManager:
                 raise JobConflictError(f"job {job_id} has nothing left to run")
             self._cancel[job_id] = threading.Event()
             self._set(rec, "queued", error=None)
+            status = self._status(rec)
         self._queue.put(job_id)
-        return rec.to_status()
+        return status
 
     # -- the worker ----------------------------------------------------------------------------
 
@@ -332,18 +515,24 @@ class JobManager:
             job_id = self._queue.get()
             if job_id is None:
                 return
-            with self._mutex:
-                rec = self._records.get(job_id)
-                if rec is None or rec.status != "queued":
-                    continue  # cancelled while queued
-                self._set(rec, "running")
-                cancel = self._cancel.setdefault(job_id, threading.Event())
             try:
-                self._run(rec, cancel)
-            except Exception as err:  # the job itself broke (unreadable spec, dead cluster)
-                log.exception("job %s failed", job_id)
-                with self._mutex:
-                    self._set(rec, "failed", error=f"{type(err).__name__}: {err}")
+                self._work_on(job_id)
+            except Exception:  # e.g. the disk is full: the next job may still run
+                log.exception("job %s could not be run", job_id)
+
+    def _work_on(self, job_id: str) -> None:
+        with self._mutex:
+            rec = self._records.get(job_id)
+            if rec is None or rec.status != "queued":
+                return  # cancelled while queued
+            self._set(rec, "running")
+            cancel = self._cancel.setdefault(job_id, threading.Event())
+        try:
+            self._run(rec, cancel)
+        except Exception as err:  # the job itself broke (unreadable spec, dead cluster)
+            log.exception("job %s failed", job_id)
+            with self._mutex:
+                self._set(rec, "failed", error=f"{type(err).__name__}: {err}")
 
     def _job(self, job_id: str) -> JobSpec:
         """The job as persisted at submission (library balls frozen)."""
@@ -432,8 +621,13 @@ class JobManager:
         self._persist(rec)
 
     def _persist(self, rec: JobRecord, durable: bool = True) -> None:
-        with atomic_path(self.dir / f"{rec.job_id}.json", durable=durable) as tmp:
-            tmp.write_text(json.dumps(asdict(rec), indent=1))
+        try:
+            with atomic_path(self.dir / f"{rec.job_id}.json", durable=durable) as tmp:
+                tmp.write_text(json.dumps(asdict(rec), indent=1))
+        except OSError as err:
+            raise ArchiveWriteError(
+                f"could not write the record of job {rec.job_id} ({err.strerror or err})"
+            ) from None
 
     def _spec_path(self, job_id: str) -> Path:
         return self.dir / f"{job_id}.spec.json"
@@ -445,9 +639,10 @@ class JobManager:
         """The job's run IDs by index (None: not known yet) from its runs file."""
         ids: builtins.list[str | None] = [None] * rec.total
         try:
-            text = self._runs_path(rec.job_id).read_text(encoding="ascii")
-        except FileNotFoundError:
+            raw = self._runs_path(rec.job_id).read_bytes()
+        except OSError:  # none yet (or unreadable: the runs are still in the archive)
             return ids
+        text = raw.decode("ascii", errors="replace")
         for line in text.splitlines():
             index, _, rid = line.partition(" ")
             if index.isdigit() and int(index) < rec.total and len(rid) == RUN_ID_LENGTH:

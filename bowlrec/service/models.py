@@ -29,6 +29,10 @@ __all__ = [
     "JobStatusName",
     "RunList",
     "RunRow",
+    "SessionClosed",
+    "SessionInfo",
+    "SessionRequest",
+    "StoredJobStatus",
     "SubmitResponse",
     "ParsedScene",
     "SpecError",
@@ -37,11 +41,18 @@ __all__ = [
     "parse_scene_spec",
 ]
 
-JobStatusName = Literal["queued", "running", "done", "failed", "interrupted", "cancelled"]
+#: the statuses a job record stores
+StoredJobStatus = Literal["queued", "running", "done", "failed", "interrupted", "cancelled"]
+#: the statuses the service reports: a stored one, or ``damaged`` (the job's record in the
+#: archive cannot be read or is invalid; ``error`` says why)
+JobStatusName = Literal[
+    "queued", "running", "done", "failed", "interrupted", "cancelled", "damaged"
+]
 
 
 class ErrorResponse(BaseModel):
-    """Every error the service raises itself: 401, 404, 409, 422 (spec and filter errors), 501."""
+    """Every error the service raises itself: 400 (Host not allowed), 401, 403 (cross-site),
+    404, 409, 413 (body too long), 422 (spec and filter errors), 501, 507."""
 
     detail: str = Field(
         description="What went wrong; for an invalid spec one 'field: message' "
@@ -50,7 +61,7 @@ class ErrorResponse(BaseModel):
 
 
 class Health(BaseModel):
-    """``GET /health`` (never needs the token)."""
+    """``GET /health`` (never needs the token; the Host check applies)."""
 
     status: Literal["ok"] = "ok"
     version: str = Field(description="bowlrec version of the server.")
@@ -178,7 +189,10 @@ class JobStatus(BaseModel):
     status: queued -> running -> done (every run attempted; failures are listed, the job is
     still done) | failed (the job itself broke, ``error``) | cancelled (``POST
     /jobs/{id}/cancel``) | interrupted (the server stopped while the job was queued or running;
-    ``POST /jobs/{id}/resume`` continues it, skipping runs already archived).
+    ``POST /jobs/{id}/resume`` continues it, skipping runs already archived). ``damaged``: the
+    job's files in the archive (``jobs/<id>.json``, ``jobs/<id>.spec.json``) are missing,
+    truncated or invalid; ``error`` says which and why, and the job can be neither cancelled
+    nor resumed (409).
     """
 
     job_id: str
@@ -233,3 +247,25 @@ def parse_ball_spec(data: Any) -> Any:
     except ValidationError as err:
         lines = format_validation_error(err).splitlines()
         raise SpecError("\n".join(f"spec.{line}" for line in lines)) from None
+
+
+# -- cookie sessions -----------------------------------------------------------------------------
+
+
+class SessionRequest(BaseModel):
+    """``POST /session`` body (optional when the bearer header carries the token)."""
+
+    token: str = Field(max_length=4096, description="The server's token.")
+
+
+class SessionInfo(BaseModel):
+    """``POST /session``: the session opened (its cookie is set by the response)."""
+
+    auth: bool = Field(description="False on a server without a token (no session needed).")
+    expires_at: str | None = Field(description="When the session ends (UTC, ISO 8601).")
+
+
+class SessionClosed(BaseModel):
+    """``DELETE /session``."""
+
+    closed: bool = Field(description="True when the request's cookie named an open session.")

@@ -67,5 +67,6 @@ def fmt_vec(v: Iterable[float]) -> str:
 
 
 def norm(v: Iterable[float]) -> float:
-    """Euclidean length of a vector (no NumPy needed)."""
-    return math.sqrt(sum(float(x) * float(x) for x in v))
+    """Euclidean length of a vector (no NumPy needed; ``math.hypot``, which does not overflow
+    for components near the float64 range)."""
+    return math.hypot(*(float(x) for x in v))

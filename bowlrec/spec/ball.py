@@ -30,6 +30,7 @@ from ._base import (
     norm,
     spec_error,
 )
+from .limits import MAX_MASS_KG, MAX_RADIUS_M
 
 __all__ = ["Ball", "PERPENDICULAR_TOLERANCE", "ZERO_LENGTH"]
 
@@ -63,9 +64,17 @@ class Ball(SpecModel):
 
     mass_kg: PositiveFloat = Field(
         default=6.8,
-        description="Mass (kg). The kinematics of the paper's scenes do not depend on it.",
+        le=MAX_MASS_KG,
+        description=(
+            f"Mass (kg), in (0, {MAX_MASS_KG:g}]. The kinematics of the paper's scenes do not "
+            "depend on it."
+        ),
     )
-    radius_m: PositiveFloat = Field(default=0.1085, description="Radius R of the ball (m).")
+    radius_m: PositiveFloat = Field(
+        default=0.1085,
+        le=MAX_RADIUS_M,
+        description=f"Radius R of the ball (m), in (0, {MAX_RADIUS_M:g}].",
+    )
     rg_m: PositiveVec3 = Field(
         default=(0.067, 0.067, 0.067),
         validate_default=True,
@@ -154,7 +163,8 @@ class Ball(SpecModel):
         a1 = info.data.get("axis_1")
         if a1 is None:  # axis_1 itself was invalid and is reported separately
             return v
-        cos = sum(x * y for x, y in zip(a1, v, strict=True)) / (norm(a1) * norm(v))
+        n1, n2 = norm(a1), norm(v)
+        cos = sum((x / n1) * (y / n2) for x, y in zip(a1, v, strict=True))
         if abs(cos) > PERPENDICULAR_TOLERANCE:
             angle = math.degrees(math.acos(max(-1.0, min(1.0, cos))))
             raise spec_error(

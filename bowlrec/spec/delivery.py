@@ -8,9 +8,17 @@ vector from the center of mass to the center); this choice moves the hook by abo
 
 from __future__ import annotations
 
+from typing import Annotated
+
 from pydantic import Field
 
-from ._base import FiniteFloat, PositiveFloat, SpecModel, Vec2, Vec3
+from ._base import FiniteFloat, PositiveFloat, SpecModel, Vec2
+from .limits import MAX_OMEGA_RADPS, MAX_SPEED_MPS
+
+#: one component of the angular velocity (rad/s), |value| <= MAX_OMEGA_RADPS
+SpinComponent = Annotated[
+    float, Field(ge=-MAX_OMEGA_RADPS, le=MAX_OMEGA_RADPS, allow_inf_nan=False)
+]
 
 __all__ = ["Delivery"]
 
@@ -26,7 +34,9 @@ class Delivery(SpecModel):
         ),
     )
     speed_mps: PositiveFloat = Field(
-        default=8.0, description="Speed of the geometric center (m/s)."
+        default=8.0,
+        le=MAX_SPEED_MPS,
+        description=f"Speed of the geometric center (m/s), in (0, {MAX_SPEED_MPS:g}].",
     )
     takeoff_angle_deg: FiniteFloat = Field(
         default=0.0,
@@ -37,9 +47,10 @@ class Delivery(SpecModel):
             "in (-90, 90)."
         ),
     )
-    omega_radps: Vec3 = Field(
+    omega_radps: tuple[SpinComponent, SpinComponent, SpinComponent] = Field(
         default=(0.0, 30.0, 0.0),
         description=(
-            "Angular velocity in the lane frame (rad/s); (0, w, 0) with w > 0 is forward roll."
+            "Angular velocity in the lane frame (rad/s); (0, w, 0) with w > 0 is forward roll. "
+            f"Each component in [-{MAX_OMEGA_RADPS:g}, {MAX_OMEGA_RADPS:g}]."
         ),
     )

@@ -1,15 +1,31 @@
-"""Rendering validation errors for people (the CLI)."""
+"""Rendering validation errors for people (the CLI, the service and batch jobs).
+
+Pydantic reports a value that fits no member of a union once per member, with the members'
+type descriptions in the location (``sweep.tagged-union[...].random.n`` beside
+``sweep.list[...]: Input should be a valid list``). :func:`format_validation_error` keeps what a
+person needs: the field path without type descriptions, and for a union the member that got
+furthest (a type mismatch at a field is dropped when another member's error lies at or below
+it; mismatches alone at one field are joined into one line).
+"""
 
 from __future__ import annotations
 
+import unicodedata
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-__all__ = ["format_loc", "format_validation_error"]
+__all__ = ["format_errors", "format_loc", "format_validation_error", "printable"]
+
+#: longest echo of an offending value in a message (its repr), and longest message line
+MAX_ECHO = 80
+MAX_LINE = 400
 
 # error types whose message already states the offending value
 _SELF_DESCRIBING = {"invalid_spec", "value_error", "assertion_error", "missing"}
+# location parts Pydantic names after a type rather than a field
+_TYPE_NAMES = {"str", "int", "float", "bool", "none", "bytes"}
 
 
 def format_loc(loc: tuple[int | str, ...]) -> str:
@@ -20,18 +36,101 @@ def format_loc(loc: tuple[int | str, ...]) -> str:
     return out or "scene"
 
 
+def _is_type_part(part: int | str) -> bool:
+    """A location part that names a union member's type (``list[any]``, ``Linspace``,
+    ``function-after[...]``), not a field: field names are lower-case identifiers."""
+    if not isinstance(part, str) or not part:
+        return False
+    return "[" in part or part in _TYPE_NAMES or part[0].isupper()
+
+
+def _is_mismatch(error: dict[str, Any]) -> bool:
+    return str(error["type"]).endswith("_type")
+
+
 def _shows_input(error: Any) -> bool:
     value = error.get("input")
     return error["type"] not in _SELF_DESCRIBING and not isinstance(value, dict | list | BaseModel)
 
 
+def printable(text: str, limit: int = MAX_LINE) -> str:
+    """``text`` safe to print on one line: control and format characters (newlines, NUL,
+    bidirectional overrides) escaped, and cut after ``limit`` characters with a note of how
+    many more there were."""
+    out = "".join(
+        c.encode("unicode_escape").decode("ascii") if unicodedata.category(c).startswith("C") else c
+        for c in text[:limit]
+    )
+    if len(text) > limit:
+        out += f"... ({len(text) - limit:,} more characters)"
+    return out
+
+
+def _echo(value: Any) -> str:
+    """The repr of an offending value, cut after MAX_ECHO characters."""
+    try:
+        text = repr(value[: 2 * MAX_ECHO] if isinstance(value, str) else value)
+    except ValueError:  # an integer too long to print
+        return f"a {type(value).__name__} too long to show"
+    size = len(value) if isinstance(value, str) else len(text)
+    if len(text) <= MAX_ECHO and size <= 2 * MAX_ECHO:
+        return text
+    return f"{text[:MAX_ECHO]}... ({size:,} characters)"
+
+
+def _message(error: Mapping[str, Any]) -> str:
+    msg = str(error["msg"]).removeprefix("Value error, ")
+    if _shows_input(error):
+        msg += f" (got {_echo(error['input'])})"
+    return msg
+
+
 def format_validation_error(err: ValidationError) -> str:
     """One line per error, ``"loc: message"``, with the offending value where it helps, e.g.
     ``ball.mass_kg: Input should be greater than 0 (got -1.0)``."""
-    lines = []
-    for e in err.errors(include_url=False):
-        msg = str(e["msg"]).removeprefix("Value error, ")
-        if _shows_input(e):
-            msg += f" (got {e['input']!r})"
-        lines.append(f"{format_loc(tuple(e['loc']))}: {msg}")
-    return "\n".join(lines)
+    return format_errors(err.errors(include_url=False))
+
+
+def format_errors(details: Iterable[Mapping[str, Any]]) -> str:
+    """:func:`format_validation_error` for error details (``loc``, ``msg``, ``type``,
+    ``input``) as Pydantic and FastAPI report them. Every line is printable (control
+    characters escaped, long values cut)."""
+    errors: list[tuple[tuple[int | str, ...], dict[str, Any]]] = []
+    for detail in details:
+        loc = tuple(p for p in detail["loc"] if not _is_type_part(p))
+        errors.append((loc, dict(detail)))
+    kept = []
+    for loc, e in errors:
+        if _is_mismatch(e) and any(
+            other is not e
+            and loc == o_loc[: len(loc)]
+            and (len(o_loc) > len(loc) or not _is_mismatch(other))
+            for o_loc, other in errors
+        ):
+            continue
+        kept.append((loc, e))
+    # several unknown fields of one mapping: one line naming them all
+    extras: dict[tuple[int | str, ...], list[str]] = {}
+    for loc, e in kept:
+        if e["type"] == "extra_forbidden" and loc:
+            extras.setdefault(loc[:-1], []).append(str(loc[-1]))
+    lines: dict[tuple[int | str, ...], list[dict[str, Any]]] = {}
+    for loc, e in kept:
+        if e["type"] == "extra_forbidden" and loc and len(extras[loc[:-1]]) > 1:
+            continue
+        lines.setdefault(loc, []).append(e)
+    out = [
+        f"{format_loc(parent)}: Extra inputs are not permitted: {', '.join(names)}"
+        for parent, names in extras.items()
+        if len(names) > 1
+    ]
+    for loc, group in lines.items():
+        mismatches = [e for e in group if _is_mismatch(e)]
+        if len(mismatches) > 1:
+            wants = [str(e["msg"]).removeprefix("Input should be ") for e in mismatches]
+            got = mismatches[0].get("input")
+            shown = "" if isinstance(got, dict | list) else f" (got {_echo(got)})"
+            out.append(f"{format_loc(loc)}: Input should be {', or '.join(wants)}{shown}")
+            group = [e for e in group if not _is_mismatch(e)]
+        out.extend(f"{format_loc(loc)}: {_message(e)}" for e in group)
+    return "\n".join(printable(line) for line in out)

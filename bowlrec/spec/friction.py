@@ -20,7 +20,11 @@ from typing import Annotated, Literal
 
 from pydantic import Field, ValidationInfo, field_validator
 
-from ._base import FiniteFloat, NonNegativeFloat, PositiveFloat, SpecModel, fmt, spec_error
+from ._base import FiniteFloat, PositiveFloat, SpecModel, fmt, spec_error
+from .limits import MAX_GRID_EDGES, MAX_MU, MAX_ZONES
+
+#: a friction coefficient, in [0, MAX_MU]
+Mu = Annotated[float, Field(ge=0, le=MAX_MU, allow_inf_nan=False)]
 
 __all__ = [
     "ConstantFriction",
@@ -36,7 +40,7 @@ class ConstantFriction(SpecModel):
     """The same friction coefficient over the whole surface."""
 
     kind: Literal["constant"] = "constant"
-    mu: NonNegativeFloat = Field(description="Coefficient of sliding friction (>= 0).")
+    mu: Mu = Field(description=f"Coefficient of sliding friction, in [0, {MAX_MU:g}].")
 
 
 class Zone(SpecModel):
@@ -46,7 +50,7 @@ class Zone(SpecModel):
     x_max_m: FiniteFloat
     y_min_m: FiniteFloat
     y_max_m: FiniteFloat
-    mu: NonNegativeFloat
+    mu: Mu
 
     @field_validator("x_max_m", "y_max_m")
     @classmethod
@@ -66,9 +70,11 @@ class ZoneFriction(SpecModel):
     """``default_mu`` everywhere except in ``zones``; later zones override earlier ones."""
 
     kind: Literal["zones"] = "zones"
-    default_mu: NonNegativeFloat = Field(description="Friction outside every zone (>= 0).")
+    default_mu: Mu = Field(description=f"Friction outside every zone, in [0, {MAX_MU:g}].")
     zones: list[Zone] = Field(
-        default_factory=list, description="Rectangles painted in order (later ones win)."
+        default_factory=list,
+        max_length=MAX_ZONES,
+        description=f"Rectangles painted in order (later ones win); at most {MAX_ZONES}.",
     )
 
 
@@ -77,8 +83,8 @@ class TypicalFriction(SpecModel):
     all but the last 20 ft before the head pin."""
 
     kind: Literal["typical"] = "typical"
-    mu_oil: NonNegativeFloat = Field(default=0.04, description="Friction on the oil (>= 0).")
-    mu_dry: NonNegativeFloat = Field(default=0.20, description="Friction off the oil (>= 0).")
+    mu_oil: Mu = Field(default=0.04, description=f"Friction on the oil, in [0, {MAX_MU:g}].")
+    mu_dry: Mu = Field(default=0.20, description=f"Friction off the oil, in [0, {MAX_MU:g}].")
     oil_length_m: PositiveFloat = Field(
         default=12.192,
         description="Oil covers x < oil_length_m (m); 12.192 m = 40 ft = 60 ft - 20 ft.",
@@ -114,15 +120,20 @@ class GridFriction(SpecModel):
     kind: Literal["grid"] = "grid"
     x_edges_m: list[FiniteFloat] = Field(
         default_factory=list,
-        description="Break points along the lane (m from the foul line), strictly increasing.",
+        max_length=MAX_GRID_EDGES,
+        description="Break points along the lane (m from the foul line), strictly increasing; "
+        f"at most {MAX_GRID_EDGES}.",
     )
     y_edges_m: list[FiniteFloat] = Field(
         default_factory=list,
-        description="Break points across the lane (m from the right gutter), strictly increasing.",
+        max_length=MAX_GRID_EDGES,
+        description="Break points across the lane (m from the right gutter), strictly "
+        f"increasing; at most {MAX_GRID_EDGES}.",
     )
-    mu: list[list[NonNegativeFloat]] = Field(
+    mu: list[list[Mu]] = Field(
         description=(
-            "Friction per cell (>= 0): len(x_edges_m) + 1 rows of len(y_edges_m) + 1 values; "
+            f"Friction per cell, in [0, {MAX_MU:g}]: len(x_edges_m) + 1 rows of "
+            "len(y_edges_m) + 1 values; "
             "mu[i][j] is the cell after x_edges_m[i-1] and after y_edges_m[j-1]."
         )
     )

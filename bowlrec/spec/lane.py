@@ -6,6 +6,7 @@ from pydantic import Field
 
 from ._base import PositiveFloat, SpecModel
 from .friction import Friction, TypicalFriction
+from .limits import MAX_LANE_M
 
 __all__ = ["Lane"]
 
@@ -15,10 +16,14 @@ class Lane(SpecModel):
     (y = 0) to the left one (y = width_m)."""
 
     length_m: PositiveFloat = Field(
-        default=18.288, description="Foul line to head pin (m); 18.288 m = 60 ft."
+        default=18.288,
+        le=MAX_LANE_M,
+        description=f"Foul line to head pin (m), in (0, {MAX_LANE_M:g}]; 18.288 m = 60 ft.",
     )
     width_m: PositiveFloat = Field(
-        default=1.0668, description="Width (m); 1.0668 m = 42 in, the paper's value."
+        default=1.0668,
+        le=MAX_LANE_M,
+        description=f"Width (m), in (0, {MAX_LANE_M:g}]; 1.0668 m = 42 in, the paper's value.",
     )
     friction: Friction = Field(
         default_factory=lambda: TypicalFriction(),

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from ._base import PositiveFloat, SpecModel
+from ._base import PositiveFloat, SpecModel, fmt, spec_error
+from .limits import MAX_G_MPS2, MAX_SAMPLES_PER_RUN, MAX_SPEED_MPS, MAX_TIME_S
 
 __all__ = ["Options"]
 
@@ -29,7 +30,11 @@ class Options(SpecModel):
         ),
     )
     record_dt_s: PositiveFloat = Field(
-        default=0.001, description="Sampling interval when record == 'rate' (s)."
+        default=0.001,
+        description=(
+            "Sampling interval when record == 'rate' (s); max_time_s / record_dt_s may not "
+            f"exceed {MAX_SAMPLES_PER_RUN:,} samples per run."
+        ),
     )
     record_terms: bool = Field(
         default=False, description="Record the per-term torques of every sample."
@@ -43,7 +48,33 @@ class Options(SpecModel):
     )
     slip_threshold_mps: PositiveFloat = Field(
         default=0.01,
-        description="Slip speed for slide_to_roll == 'threshold' (m/s); the paper's 1 cm/s.",
+        le=MAX_SPEED_MPS,
+        description=(
+            "Slip speed for slide_to_roll == 'threshold' (m/s), in (0, "
+            f"{MAX_SPEED_MPS:g}]; the paper's 1 cm/s."
+        ),
     )
-    max_time_s: PositiveFloat = Field(default=60.0, description="Hard limit on simulated time (s).")
-    g_mps2: PositiveFloat = Field(default=9.81, description="Gravitational acceleration (m/s^2).")
+    max_time_s: PositiveFloat = Field(
+        default=60.0,
+        le=MAX_TIME_S,
+        description=f"Hard limit on simulated time (s), in (0, {MAX_TIME_S:g}].",
+    )
+    g_mps2: PositiveFloat = Field(
+        default=9.81,
+        le=MAX_G_MPS2,
+        description=f"Gravitational acceleration (m/s^2), in (0, {MAX_G_MPS2:g}].",
+    )
+
+    @model_validator(mode="after")
+    def _samples_bounded(self) -> Options:
+        """A fixed-rate recording holds at most MAX_SAMPLES_PER_RUN samples."""
+        if self.record == "rate":
+            samples = self.max_time_s / self.record_dt_s
+            if samples > MAX_SAMPLES_PER_RUN:
+                raise spec_error(
+                    f"record_dt_s = {fmt(self.record_dt_s)} s over max_time_s = "
+                    f"{fmt(self.max_time_s)} s allows {samples:.3g} samples; at most "
+                    f"{MAX_SAMPLES_PER_RUN:,} samples per run: use record_dt_s >= "
+                    f"{self.max_time_s / MAX_SAMPLES_PER_RUN:.3g} s or a shorter max_time_s"
+                )
+        return self

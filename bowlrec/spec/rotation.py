@@ -19,11 +19,18 @@ __all__ = [
 ]
 
 Array = NDArray[np.float64]
+#: components between these square without overflow or underflow (float64)
+_SAFE_MIN, _SAFE_MAX = 1e-150, 1e150
 
 
 def normalized(v: Sequence[float] | Array) -> Array:
-    """``v / |v|`` as float64 (the caller guarantees |v| > 0)."""
+    """``v / |v|`` as float64 (the caller guarantees |v| > 0). A vector whose largest
+    component is beyond 1e150 or below 1e-150 in magnitude is first divided by it, so that
+    squaring the components neither overflows nor underflows (any finite direction works)."""
     a = np.asarray(v, dtype=np.float64)
+    largest = float(np.max(np.abs(a)))
+    if not _SAFE_MIN < largest < _SAFE_MAX:
+        a = a / largest
     return a / np.linalg.norm(a)
 
 

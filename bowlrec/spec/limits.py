@@ -1,0 +1,55 @@
+"""Hard limits of a physical scene: generous, finite bounds that keep every computed value
+finite and every run's work bounded (SI units).
+
+They are physical plausibility bounds, far outside anything bowled, not rules: the USBC limits
+(ball weight, size, RG, differential) live in the bowlers' layer
+(:mod:`bowlrec.bowling.legality`, ``allow_illegal``), because the paper's own cases and the
+stress tests go beyond legal on purpose. Every limit is in the JSON Schemas (``maximum``) and
+in the field's description, and an input beyond one is refused with the field's name, the value
+and the allowed range.
+
+Why each bound:
+
+* speed 100 m/s: about 8x the fastest delivery ever bowled (~12 m/s); beyond it air drag, which
+  the model leaves out, would dominate.
+* spin 1000 rad/s per component (9,549 rpm): about 13x the highest rev rates (~75 rad/s); the
+  surface of a 0.1085 m ball would move at 108 m/s.
+* mass 100 kg, radius 1 m: ~14x and ~9x a bowling ball; they keep moments of inertia and normal
+  forces finite.
+* mu 10: dry rubber on concrete is about 1 and a lane 0.04-0.3.
+* lane 10 km long and wide: the stress tests roll a ball 1.8 km on a 2 km wide lane.
+* g 100 m/s^2: 10 g.
+* max_time_s 10,000 s: the longest stress test runs 430 s of simulated time.
+* samples per run 2,000,000: the integrator's step limit, so ``record: steps`` (one sample per
+  step) and ``record: rate`` (max_time_s / record_dt_s samples) have the same bound: 2,000,000
+  samples of 16 float64 values are 256 MB.
+* friction zones 256: a zone map becomes a grid of up to (2n + 1)^2 cells.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "MAX_G_MPS2",
+    "MAX_GRID_EDGES",
+    "MAX_LANE_M",
+    "MAX_MASS_KG",
+    "MAX_MU",
+    "MAX_OMEGA_RADPS",
+    "MAX_RADIUS_M",
+    "MAX_SAMPLES_PER_RUN",
+    "MAX_SPEED_MPS",
+    "MAX_TIME_S",
+    "MAX_ZONES",
+]
+
+MAX_SPEED_MPS = 100.0
+MAX_OMEGA_RADPS = 1000.0
+MAX_MASS_KG = 100.0
+MAX_RADIUS_M = 1.0
+MAX_MU = 10.0
+MAX_LANE_M = 10_000.0
+MAX_G_MPS2 = 100.0
+MAX_TIME_S = 10_000.0
+MAX_SAMPLES_PER_RUN = 2_000_000
+MAX_ZONES = 256
+MAX_GRID_EDGES = 4096

@@ -1,0 +1,593 @@
+"""The service's defences ("nothing let in"): the request body limit, the Host allow-list, the
+cross-site check, cookie sessions, the strong-token rule of ``serve``, ball names matched whole
+and error details without server paths. Real servers on 127.0.0.1 (``bowlrec serve`` in a
+subprocess, or uvicorn in a thread of this process) where the transport matters; TestClient
+for the rest."""
+
+from __future__ import annotations
+
+import http.client
+import json
+import os
+import select
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+httpx = pytest.importorskip("httpx")
+pytest.importorskip("fastapi")
+uvicorn = pytest.importorskip("uvicorn")
+
+from fastapi.testclient import TestClient  # noqa: E402
+
+from bowlrec.archive import Archive, ArchiveWriteError, RunDamagedError  # noqa: E402
+from bowlrec.service.app import create_app  # noqa: E402
+from bowlrec.service.redact import Redactor  # noqa: E402
+
+HERE = Path(__file__).parent
+CHILD = HERE / "service_child.py"
+TOKEN = "t0ken-" + "x" * 40
+BALL = {"mass_kg": 7.0, "radius_m": 0.1085, "rg_m": [0.068, 0.07, 0.07]}
+
+
+# -- servers -------------------------------------------------------------------------------------
+
+
+class ThreadServer:
+    """uvicorn serving ``app`` on 127.0.0.1 (an ephemeral port) in a thread of this process."""
+
+    def __init__(self, app: Any) -> None:
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.port = int(self.sock.getsockname()[1])
+        self.url = f"http://127.0.0.1:{self.port}"
+        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
+        self.server = uvicorn.Server(config)
+        self.thread = threading.Thread(
+            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
+        )
+
+    def __enter__(self) -> ThreadServer:
+        self.thread.start()
+        deadline = time.monotonic() + 30
+        while not self.server.started:
+            assert time.monotonic() < deadline and self.thread.is_alive(), "server did not start"
+            time.sleep(0.02)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.server.should_exit = True
+        self.thread.join(60)
+        self.sock.close()
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def start_cli_server(archive: Path, *extra: str) -> tuple[subprocess.Popen[bytes], str]:
+    """``bowlrec serve`` in a subprocess (no token); (process, url) once /health answers."""
+    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
+    for _ in range(3):
+        port = _free_port()
+        cmd = [sys.executable, str(CHILD), "--archive", str(archive), "--port", str(port)]
+        proc = subprocess.Popen(
+            [*cmd, "--log-level", "warning", *extra],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
+        url = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
+                    return proc, url
+            except httpx.TransportError:
+                time.sleep(0.05)
+        if proc.poll() is None:
+            proc.kill()
+        err = proc.communicate(timeout=10)[1].decode(errors="replace")
+        if "address already in use" not in err.lower():
+            raise RuntimeError(f"server did not start:\n{err}")
+    raise RuntimeError("no free port")
+
+
+def stop(proc: subprocess.Popen[bytes]) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(10)
+
+
+@pytest.fixture
+def open_app(tmp_path: Path) -> Iterator[TestClient]:
+    """A token-less app (no warm-up) and a client that says ``Host: 127.0.0.1``."""
+    app = create_app(tmp_path / "archive", warm_up=False)
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as client:
+        yield client
+
+
+@pytest.fixture
+def token_app(tmp_path: Path) -> Iterator[TestClient]:
+    app = create_app(tmp_path / "archive", TOKEN, warm_up=False)
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as client:
+        yield client
+
+
+def _job_body(n: int) -> dict[str, Any]:
+    return {"name": "big", "scenes": [{"delivery": {"speed_mps": 7.5}}] * n}
+
+
+# -- the body limit ------------------------------------------------------------------------------
+
+
+def test_a_chunked_body_over_the_limit_gets_413_without_being_read(tmp_path: Path) -> None:
+    """``serve --max-body-mb 0.25``: a chunked POST (no Content-Length) of whitespace that would
+    go on for 64 MiB is answered 413 once 256 KiB have arrived; the client sees the answer
+    before it has sent its body. A Content-Length over the limit is refused up front."""
+    proc, url = start_cli_server(tmp_path / "archive", "--max-body-mb", "0.25")
+    detail = "request body exceeds the limit of 262144 bytes (serve --max-body-mb)"
+    try:
+        port = int(url.rsplit(":", 1)[1])
+        conn = http.client.HTTPConnection("127.0.0.1", port, timeout=30)
+        conn.putrequest("POST", "/runs")
+        conn.putheader("Content-Type", "application/json")
+        conn.putheader("Transfer-Encoding", "chunked")
+        conn.endheaders()
+        total, sent, chunk = 64 * 2**20, 0, b" " * 65536
+        assert conn.sock is not None
+        while sent < total and not select.select([conn.sock], [], [], 0)[0]:
+            try:
+                conn.send(b"%x\r\n%s\r\n" % (len(chunk), chunk))
+            except OSError:  # the server closed the connection after answering
+                break
+            sent += len(chunk)
+        response = conn.getresponse()
+        assert response.status == 413
+        assert json.loads(response.read()) == {"detail": detail}
+        assert sent < total  # answered while the body was still coming
+        conn.close()
+
+        def body() -> Iterator[bytes]:  # httpx streams a generator chunked
+            for _ in range(1000):
+                yield b" " * 65536
+
+        r = httpx.post(f"{url}/jobs", content=body(), headers={"content-type": "application/json"})
+        assert r.status_code == 413 and r.json() == {"detail": detail}
+        declared = httpx.post(
+            f"{url}/balls", content=b" " * 300_000, headers={"content-type": "application/json"}
+        )
+        assert declared.status_code == 413 and declared.json() == {"detail": detail}
+        # under the limit, all as usual
+        ok = httpx.post(f"{url}/balls", json={"name": "small", "spec": BALL})
+        assert ok.status_code == 201, ok.text
+    finally:
+        stop(proc)
+
+
+def test_a_100000_run_job_fits_the_default_limit_and_cross_site_cancel_is_refused(
+    tmp_path: Path,
+) -> None:
+    """The default limit (32 MiB) takes a 100,000-run job of explicit minimal scenes (3.4 MB).
+    On this token-less server, a cross-site ``POST /jobs/ID/cancel`` (a page of another site
+    posting to 127.0.0.1) gets 403; the same request from a script (no Origin) gets 202."""
+    app = create_app(tmp_path / "archive", warm_up=False)
+    with ThreadServer(app) as srv, httpx.Client(base_url=srv.url, timeout=120) as client:
+        body = json.dumps(_job_body(100_000)).encode()
+        assert 3_000_000 < len(body) < 32 * 2**20
+        r = client.post("/jobs", content=body, headers={"content-type": "application/json"})
+        assert r.status_code == 202, r.text
+        job_id = r.json()["job_id"]
+        assert r.json()["total"] == 100_000
+
+        attacker = client.post(
+            f"/jobs/{job_id}/cancel",
+            headers={"Origin": "https://attacker.example", "Sec-Fetch-Site": "cross-site"},
+        )
+        assert attacker.status_code == 403
+        assert "cross-site request refused" in attacker.json()["detail"]
+        origin_only = client.post(
+            f"/jobs/{job_id}/cancel", headers={"Origin": "https://attacker.example"}
+        )
+        assert origin_only.status_code == 403 and "\n" not in origin_only.json()["detail"]
+        assert client.get(f"/jobs/{job_id}").json()["status"] in ("queued", "running")
+
+        own = client.post(f"/jobs/{job_id}/cancel", headers={"Origin": srv.url})
+        assert own.status_code == 202, own.text
+
+
+def test_create_app_max_body_bytes(tmp_path: Path) -> None:
+    app = create_app(tmp_path / "archive", warm_up=False, max_body_bytes=100)
+    with TestClient(app, base_url="http://127.0.0.1") as client:
+        r = client.post("/balls", json={"name": "x" * 200, "spec": BALL})
+        assert r.status_code == 413
+        assert r.json()["detail"] == (
+            "request body exceeds the limit of 100 bytes (serve --max-body-mb)"
+        )
+        assert client.post("/jobs/nope/cancel").status_code == 404  # an empty body is fine
+    unlimited = create_app(tmp_path / "other", warm_up=False, max_body_bytes=None)
+    with TestClient(unlimited, base_url="http://127.0.0.1") as client:
+        assert client.post("/balls", json={"name": "y", "spec": BALL}).status_code == 201
+
+
+# -- the Host allow-list -------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "host",
+    ["127.0.0.1", "127.0.0.1:8000", "localhost", "LOCALHOST:1", "localhost.", "127.3.4.5:80"]
+    + ["[::1]", "[::1]:8000"],
+)
+def test_loopback_hosts_are_allowed(open_app: TestClient, host: str) -> None:
+    assert open_app.get("/health", headers={"Host": host}).status_code == 200
+
+
+@pytest.mark.parametrize(
+    "host", ["evil.example", "evil.example:8000", "192.168.1.4", "[::2]:80", "localhost.evil.io"]
+)
+def test_other_hosts_are_refused_with_a_hint(open_app: TestClient, host: str) -> None:
+    """DNS rebinding: a page of evil.example whose name now resolves to 127.0.0.1 reaches the
+    server with ``Host: evil.example``; nothing answers it, not even /health."""
+    for method, path in (("GET", "/health"), ("GET", "/runs"), ("POST", "/balls")):
+        r = open_app.request(method, path, headers={"Host": host}, json={})
+        assert r.status_code == 400, (method, path, r.text)
+        detail = r.json()["detail"]
+        assert "is not allowed" in detail and "--allowed-host" in detail and "\n" not in detail
+
+
+def test_allowed_hosts_and_the_bound_address(tmp_path: Path) -> None:
+    app = create_app(tmp_path / "a", warm_up=False, allowed_hosts=["box.lan", "10.0.0.7"])
+    with TestClient(app, base_url="http://127.0.0.1") as client:
+        for host in ("box.lan", "BOX.LAN:8000", "10.0.0.7:8000", "localhost"):
+            assert client.get("/balls", headers={"Host": host}).status_code == 200, host
+        assert client.get("/balls", headers={"Host": "other.lan"}).status_code == 400
+    with pytest.raises(ValueError, match="not a host name"):
+        create_app(tmp_path / "b", warm_up=False, allowed_hosts=["http://x/y"])
+
+
+def test_bearer_requests_skip_the_host_and_origin_checks(token_app: TestClient) -> None:
+    bearer = {"Authorization": f"Bearer {TOKEN}"}
+    hostile = {"Host": "evil.example", "Origin": "https://attacker.example"}
+    assert token_app.get("/balls", headers={**bearer, **hostile}).status_code == 200
+    r = token_app.post(
+        "/balls", headers={**bearer, **hostile, "Sec-Fetch-Site": "cross-site"},
+        json={"name": "scripted", "spec": BALL},
+    )  # fmt: skip
+    assert r.status_code == 201, r.text
+    # a wrong token is no exemption
+    wrong = {"Authorization": "Bearer nope", **hostile}
+    assert token_app.get("/balls", headers=wrong).status_code == 400
+
+
+# -- the cross-site check ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("headers", "allowed"),
+    [
+        ({}, True),  # curl, scripts
+        ({"Sec-Fetch-Site": "same-origin"}, True),
+        ({"Sec-Fetch-Site": "none"}, True),  # typed into the address bar
+        ({"Origin": "http://127.0.0.1"}, True),
+        ({"Origin": "http://127.0.0.1:80", "Sec-Fetch-Site": "same-origin"}, True),
+        ({"Sec-Fetch-Site": "cross-site"}, False),
+        ({"Sec-Fetch-Site": "same-site"}, False),
+        ({"Origin": "https://attacker.example"}, False),
+        ({"Origin": "null"}, False),
+        ({"Origin": "https://127.0.0.1"}, False),  # another scheme: another origin
+        ({"Origin": "http://127.0.0.1:8001"}, False),  # another port
+        ({"Origin": "http://localhost"}, False),  # another name for the same server
+    ],
+)
+def test_state_changing_requests_must_be_same_origin(
+    open_app: TestClient, headers: dict[str, str], allowed: bool
+) -> None:
+    r = open_app.delete("/balls/nothing@1", headers=headers)
+    if allowed:
+        assert r.status_code == 404, r.text  # reached the endpoint
+    else:
+        assert r.status_code == 403, r.text
+        assert r.json()["detail"].startswith("cross-site request refused")
+    # reading is not state-changing: no Origin check
+    assert open_app.get("/balls", headers=headers).status_code == 200
+
+
+# -- cookie sessions -----------------------------------------------------------------------------
+
+
+def test_cookie_session_opens_authenticates_and_closes(token_app: TestClient) -> None:
+    assert token_app.get("/balls").status_code == 401
+    wrong = token_app.post("/session", json={"token": "wrong"})
+    assert wrong.status_code == 401 and "set-cookie" not in wrong.headers
+
+    r = token_app.post("/session", json={"token": TOKEN})
+    assert r.status_code == 200 and r.json()["auth"] is True and r.json()["expires_at"]
+    cookie = r.headers["set-cookie"]
+    attrs = {a.strip().split("=")[0].lower() for a in cookie.split(";")}
+    assert cookie.startswith("bowlrec_session=")
+    assert {"httponly", "path", "samesite", "max-age"} <= attrs and "secure" not in attrs
+    assert "samesite=strict" in cookie.lower() and "path=/" in cookie.lower()
+    session_id = token_app.cookies["bowlrec_session"]
+    assert len(session_id) >= 40
+
+    # the cookie authenticates like the bearer header (what an <img> or EventSource sends)
+    assert token_app.get("/balls").status_code == 200
+    made = token_app.post("/balls", json={"name": "cookie ball", "spec": BALL})
+    assert made.status_code == 201, made.text
+    # ... but a cookie-authenticated request from another site is refused
+    cross = token_app.post(
+        "/balls",
+        json={"name": "csrf", "spec": BALL},
+        headers={"Origin": "https://attacker.example", "Sec-Fetch-Site": "cross-site"},
+    )
+    assert cross.status_code == 403
+    assert token_app.get("/balls", headers={"Host": "evil.example"}).status_code == 400
+
+    closed = token_app.delete("/session")
+    assert closed.status_code == 200 and closed.json() == {"closed": True}
+    assert "bowlrec_session" not in token_app.cookies
+    token_app.cookies.set("bowlrec_session", session_id)  # replaying the closed session
+    assert token_app.get("/balls").status_code == 401
+    token_app.cookies.set("bowlrec_session", "forged")
+    assert token_app.get("/balls").status_code == 401
+
+
+def test_session_from_the_bearer_header_over_https_is_secure(tmp_path: Path) -> None:
+    app = create_app(tmp_path / "archive", TOKEN, warm_up=False)
+    with TestClient(app, base_url="https://localhost") as client:
+        r = client.post("/session", headers={"Authorization": f"Bearer {TOKEN}"})
+        assert r.status_code == 200
+        assert "secure" in {a.strip().lower() for a in r.headers["set-cookie"].split(";")}
+        assert client.get("/balls").status_code == 200  # the cookie alone
+
+
+def test_sessions_expire_and_are_not_needed_without_a_token(tmp_path: Path) -> None:
+    app = create_app(tmp_path / "archive", TOKEN, warm_up=False, session_ttl_s=0.2)
+    with TestClient(app, base_url="http://127.0.0.1") as client:
+        assert client.post("/session", json={"token": TOKEN}).status_code == 200
+        assert client.get("/balls").status_code == 200
+        time.sleep(0.3)
+        assert client.get("/balls").status_code == 401
+    app = create_app(tmp_path / "open", warm_up=False)
+    with TestClient(app, base_url="http://127.0.0.1") as client:
+        r = client.post("/session")
+        assert r.json() == {"auth": False, "expires_at": None} and "set-cookie" not in r.headers
+
+
+# -- serve: the strong token, flags ----------------------------------------------------------------
+
+
+def _serve(args: list[str], token: str | None) -> subprocess.CompletedProcess[str]:
+    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
+    if token is not None:
+        env["BOWLREC_TOKEN"] = token
+    return subprocess.run(
+        [sys.executable, str(CHILD), *args], capture_output=True, text=True, env=env, timeout=60
+    )
+
+
+def test_serve_refuses_a_short_token_on_a_non_loopback_host(tmp_path: Path) -> None:
+    archive = tmp_path / "a"
+    out = _serve(["--archive", str(archive), "--host", "0.0.0.0"], token="short-token")
+    assert out.returncode == 2
+    [line] = [ln for ln in out.stderr.splitlines() if ln.strip()]
+    assert "$BOWLREC_TOKEN must be at least 32 characters" in line
+    assert "secrets.token_urlsafe(32)" in line
+    assert not archive.exists()  # refused before touching anything
+
+
+def test_serve_flags_reach_the_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``--allowed-host`` (repeatable), ``--max-body-mb`` and the bound IP, as ``serve`` passes
+    them to the app (uvicorn's run replaced; the sockets were bound before "serving on")."""
+    from typer.testing import CliRunner
+
+    from bowlrec.cli import app as cli
+    from bowlrec.cli import serve as _serve_module  # noqa: F401  (registers the command)
+
+    served: dict[str, Any] = {}
+
+    def fake_run(self: Any, sockets: list[socket.socket] | None = None) -> None:
+        served["app"], served["sockets"] = self.config.app, sockets
+
+    monkeypatch.setattr(uvicorn.Server, "run", fake_run)
+    monkeypatch.setenv("BOWLREC_TOKEN", TOKEN)
+    args = ["serve", "--archive", str(tmp_path / "a"), "--host", "127.0.0.9", "--port", "0"]
+    args += ["--allowed-host", "box.lan", "--allowed-host", "[fd00::1]", "--max-body-mb", "0.001"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    assert "serving" in result.output
+    for sock in served["sockets"]:
+        assert sock.getsockname()[0] == "127.0.0.9"
+        sock.close()
+    with TestClient(served["app"], base_url="http://127.0.0.1") as client:
+        session = client.post("/session", json={"token": TOKEN})
+        assert session.status_code == 200
+        for host in ("box.lan", "[fd00::1]:8000", "127.0.0.9:8000"):
+            assert client.get("/balls", headers={"Host": host}).status_code == 200, host
+        assert client.get("/balls", headers={"Host": "other"}).status_code == 400
+        big = client.post("/balls", json={"name": "n" * 2000, "spec": BALL})
+        assert big.status_code == 413 and "1048 bytes" in big.json()["detail"]
+
+    bad = CliRunner().invoke(
+        cli, ["serve", "--archive", str(tmp_path / "b"), "--allowed-host", "a/b"]
+    )
+    assert bad.exit_code == 2 and "not a host name" in bad.output
+
+
+def test_serve_reports_a_port_in_use_in_one_line(tmp_path: Path) -> None:
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        out = _serve(["--archive", str(tmp_path / "a"), "--port", str(port)], token=None)
+    assert out.returncode == 2
+    assert "address already in use" in out.stderr.lower() and "serving" not in out.stderr
+
+
+# -- ball names ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["house\n", "house\r\n", "\nhouse", "house\x00", "a" * 101])
+def test_ball_names_are_matched_whole(open_app: TestClient, tmp_path: Path, name: str) -> None:
+    r = open_app.post("/balls", json={"name": name, "spec": BALL})
+    assert r.status_code == 422 and "ball name" in r.json()["detail"]
+    assert open_app.get("/balls", params={"all_versions": True}).json() == []
+    library = Archive(tmp_path / "lib").balls
+    with pytest.raises(ValueError, match="ball name"):
+        library.add(name, library_ball())
+    assert library.list() == []
+
+
+def library_ball() -> Any:
+    from bowlrec.archive.balls import parse_ball
+
+    return parse_ball(BALL)
+
+
+def test_ball_refs_with_odd_versions_or_names_are_client_errors(open_app: TestClient) -> None:
+    assert open_app.post("/balls", json={"name": "house", "spec": BALL}).status_code == 201
+    for ref in ("house@\uff11", "house@1%0A", "house@99999999999999999999", "house@0"):
+        assert open_app.get(f"/balls/{ref}").status_code == 422, ref
+        assert open_app.delete(f"/balls/{ref}").status_code == 422, ref
+    for ref in ("..@1", ".@1", "house%00@1", "house%0A@1"):
+        assert open_app.delete(f"/balls/{ref}").status_code == 404, ref
+        assert open_app.get(f"/balls/{ref}").status_code == 404, ref
+    assert open_app.get("/balls/house@1").status_code == 200
+
+
+# -- no server paths in error details ------------------------------------------------------------
+
+
+def test_404_and_other_error_details_name_no_server_path(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    root = tmp_path / "archive"
+    app = create_app(root, warm_up=False)
+    state = app.state.bowlrec
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as client:
+        details = []
+        for path in ("/runs/0123456789abcdef0123", "/runs/0123456789abcdef0123/spec",
+                     "/runs/0123/files/hdf5", "/balls/none", "/jobs/none", "/nowhere"):  # fmt: skip
+            r = client.get(path)
+            assert r.status_code == 404, path
+            details.append(r.json()["detail"])
+        assert "no run '0123456789abcdef0123'" in details[0]
+
+        def unwritable(*args: Any, **kw: Any) -> Any:
+            raise ArchiveWriteError(
+                f"{root}/segments: could not write a segment of 1 run(s) (disk full); nothing "
+                "already archived was lost"
+            )
+
+        monkeypatch.setattr(state.archive, "simulate", unwritable)
+        r = client.post("/runs", json={"options": {"record": "summary"}})
+        assert r.status_code == 507 and "ARCHIVE/segments: could not write" in r.json()["detail"]
+        details.append(r.json()["detail"])
+
+        def damaged(*args: Any, **kw: Any) -> Any:
+            raise RunDamagedError(
+                "0123456789abcdef0123",
+                "seg1",
+                f"unreadable: Unable to open file (name = '{root}/segments/a/b.h5'); "
+                "see /usr/lib/python3/h5py/_hl/files.py",
+            )
+
+        monkeypatch.setattr(state.archive, "resolve_id", lambda rid: rid)
+        monkeypatch.setattr(state.archive, "load", damaged)
+        r = client.get("/runs/0123456789abcdef0123/spec")
+        assert r.status_code == 409 and "run 0123456789abcdef0123" in r.json()["detail"]
+        details.append(r.json()["detail"])
+
+        def no_mcap(*args: Any, **kw: Any) -> Any:
+            raise ImportError(f"cannot import name 'x' from 'mcap' ({root}/lib/mcap/__init__.py)")
+
+        monkeypatch.setattr(state.archive, "run_data", no_mcap)
+        r = client.get("/runs/0123456789abcdef0123/files/mcap")
+        assert r.status_code == 501
+        details.append(r.json()["detail"])
+
+        # a job that failed with a path in its error, and a failure row naming a file
+        job_id = client.post("/jobs", json={"scenes": [{}]}).json()["job_id"]
+        client.post(f"/jobs/{job_id}/cancel")
+        with state.jobs._mutex:
+            rec = state.jobs._records[job_id]
+            rec.status, rec.error = "failed", f"FileNotFoundError: '{root}/jobs/{job_id}.spec.json'"
+            rec.failures = [{"index": 0, "run_id": None, "error": "OSError: /home/u/x.h5 gone"}]
+        job = client.get(f"/jobs/{job_id}").json()
+        listed = client.get("/jobs").json()[0]
+        details += [job["error"], job["failures"][0]["error"], listed["error"]]
+    for detail in details:
+        assert str(root) not in detail and str(tmp_path) not in detail, detail
+        assert "/usr/lib" not in detail and "/home/u" not in detail, detail
+    assert "ARCHIVE/jobs/" in job["error"] and "<path>" in job["failures"][0]["error"]
+
+
+def test_redactor() -> None:
+    redact = Redactor("/srv/data/archive")
+    assert redact("no run 'ab12' in archive /srv/data/archive") == "no run 'ab12'"
+    assert redact("/srv/data/archive/segments/x.h5: gone") == "ARCHIVE/segments/x.h5: gone"
+    assert redact("open '/etc/passwd' failed") == "open '<path>' failed"
+    assert redact("see /a/b/c/d") == "see <path>"
+    kept = "POST /jobs/{id}/resume; ratio 3/4; http://host/a/b; name@2"
+    assert redact(kept) == kept
+
+
+# -- no 5xx for bad input ------------------------------------------------------------------------
+
+
+def test_bad_input_gets_4xx_never_5xx(open_app: TestClient) -> None:
+    requests: list[tuple[str, str, Any]] = [
+        ("POST", "/balls/import", {"format": "bowlrec-ball-library", "balls": {"a": 1}}),
+        ("POST", "/balls/import", {"format": "bowlrec-ball-library", "balls": [1, "x"]}),
+        ("POST", "/balls/import", {"format": "bowlrec-ball-library", "balls": [{"name": 1}]}),
+        (
+            "POST",
+            "/balls/import",
+            {"format": "bowlrec-ball-library", "balls": [{"name": "a\n", "spec": BALL}]},
+        ),  # fmt: skip
+        ("POST", "/balls/import", []),
+        ("POST", "/balls", {"name": "x", "spec": [1]}),
+        ("POST", "/balls", {"name": None, "spec": BALL}),
+        ("POST", "/jobs", []),
+        ("POST", "/jobs", {"scenes": None}),
+        ("POST", "/jobs", {"scenes": "x"}),
+        (
+            "POST",
+            "/jobs",
+            {
+                "sweep": {
+                    "kind": "grid",
+                    "axes": {
+                        "delivery.speed_mps": {"start": 7, "stop": 9, "num": 100000},
+                        "delivery.omega_radps[1]": {"start": 1, "stop": 9, "num": 100000},
+                    },
+                }
+            },
+        ),  # fmt: skip
+        ("POST", "/session", {"token": 5}),
+        ("POST", "/session", [1]),
+        ("GET", "/runs?where=hook_m>=abc", None),
+        ("GET", "/runs?where=hook_m", None),
+        ("GET", "/runs?limit=-1", None),
+        ("GET", "/runs/%00", None),
+        ("GET", "/balls/%00", None),
+        ("GET", "/jobs/%00", None),
+        ("POST", "/jobs/..%2F..%2Fx/resume", None),
+        ("DELETE", "/balls/a@1@2", None),
+    ]
+    for method, path, body in requests:
+        r = open_app.request(method, path, json=body)
+        assert 400 <= r.status_code < 500, (method, path, r.status_code, r.text)
