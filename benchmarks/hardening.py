@@ -1,14 +1,14 @@
-"""Bounded work under hostile input: what the reported inputs cost a real server now, and a
-10,000,000-run job from the command line.
+"""Bounded work under hostile input: what the reported hostile inputs cost a real server, and
+a 10,000,000-run job from the command line.
 
     python -m benchmarks.hardening [--out benchmarks/results] [--stop-at 1000000]
 
-1. **The service** (``bowlrec serve`` on 127.0.0.1, a fresh archive): each input a hostile-input
-   campaign used to exhaust the machine is sent once; for each, the status, the seconds until
-   the answer, and the server's peak resident memory (``VmHWM`` from /proc) after it and how
-   much the request raised it. The targets: every one is answered within 1 s, refused (4xx)
-   or accepted as a background job (the allowed large jobs), and no refused input raises the
-   server's peak memory by more than 100 MB.
+1. **The service** (``bowlrec serve`` on 127.0.0.1, a fresh archive): each input with which a
+   hostile-input campaign exhausted the machine (1-3 GB) is sent once; for each, the status,
+   the seconds until the answer, and the server's peak resident memory (``VmHWM`` from /proc)
+   after it and how much the request raised it. The targets: every one is answered within
+   1 s, refused (4xx) or accepted as a background job (the allowed large jobs), and no refused
+   input raises the server's peak memory by more than 100 MB.
 2. **A 10,000,000-run summary-only job** (``bowlrec batch JOB --no-archive --out t.jsonl -j 2``,
    the case-16 benchmark job with n = 10,000,000): seconds from launching the command until
    the first table row is written, and the resident memory of the command and its workers at

@@ -148,10 +148,14 @@ def parse_scene(
     except ValidationError as err:
         text = format_validation_error(err)
         hint = sorted(_BOWLER_ONLY & set(data)) if not is_bowler(data) else []
-        if hint:  # the other errors are the bowler fields a physical scene does not have
-            text = (
-                f"format: missing; {', '.join(hint)} belong to a bowler-language scene: add "
-                '"format": "bowler"'
+        if hint:  # the unknown fields are the bowler ones a physical scene does not have
+            others = [x for x in text.splitlines() if "Extra inputs are not permitted" not in x]
+            text = "\n".join(
+                [
+                    f"format: missing; {', '.join(hint)} belong to a bowler-language scene: "
+                    'add "format": "bowler"',
+                    *others,
+                ]
             )
         raise SceneInputError(text) from None
     try:

@@ -2,9 +2,10 @@
 
 ``bowlrec batch -j 2`` and ``bowlrec serve --job-workers 2`` (with a job running) are started as
 real commands, each in a session of its own; once their two pool workers are busy the command's
-process is SIGKILLed and left unreaped (a zombie: its pid still answers ``kill(pid, 0)``, the case
-that used to keep the workers alive), and within a few seconds no live process of that session
-may remain: not the fork server, not the resource tracker, not a worker
+process is SIGKILLed and left unreaped (a zombie: its pid still answers ``kill(pid, 0)``, so a
+worker that only asks whether its parent's pid is alive would wait forever), and within a few
+seconds no live process of that session may remain: not the fork server, not the resource
+tracker, not a worker
 (:mod:`bowlrec.batch.lifeline`). Survivors are killed in any case, so the suite never leaks.
 
 Each scenario runs once by default; the ``slow`` variants repeat it with the kill landing at
@@ -17,6 +18,7 @@ import contextlib
 import json
 import os
 import random
+import shutil
 import signal
 import socket
 import subprocess
@@ -260,3 +262,21 @@ def test_killed_server_leaves_no_process(tmp_path: Path) -> None:
 @pytest.mark.parametrize("round_", range(4))
 def test_killed_server_leaves_no_process_repeatedly(tmp_path: Path, round_: int) -> None:
     run_server_and_kill(tmp_path, busy=round_ != 1)
+
+
+def test_a_pool_starts_when_bowlrec_is_pid_1(tmp_path: Path) -> None:
+    """In a container without an init process bowlrec is pid 1, so the fork server's parent is
+    pid 1 and is alive: the pool must start (the fork server must not take pid 1 for a sign
+    that the batch's process died)."""
+    unshare = shutil.which("unshare")
+    if unshare is None:
+        pytest.skip("no unshare(1) here")
+    out = tmp_path / "t.csv"
+    job = Path(__file__).resolve().parents[1] / "examples" / "jobs" / "speed-rev-grid.json"
+    cmd = [unshare, "-pf", "--mount-proc", sys.executable, "-m", "bowlrec.cli", "batch"]
+    cmd += [str(job), "--no-archive", "--out", str(out), "-j", "2", "-q"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    if proc.returncode != 0 and "unshare" in proc.stderr:
+        pytest.skip(f"no PID namespace here: {proc.stderr.strip()}")
+    assert proc.returncode == 0, proc.stderr
+    assert len(out.read_text().splitlines()) == 21  # a header and 20 runs

@@ -618,7 +618,7 @@ def test_summary_runs_segment_equals_segment_builder_segment(tmp_path: Path, rto
     n = job.count()
     res = run_chunk(ChunkTask(ctx, 0, n, WriteTarget(str(tmp_path / "nowhere"), mode="no")))
     runs = res.summary_runs
-    assert runs is not None and res.segment is None and not res.records
+    assert runs is not None and not res.segments and not res.records
     ok = [i for i, s in enumerate(res.table.status) if s == "ok"]
     assert runs.run_ids() == [res.table.run_id[i] for i in ok]
     assert len(ok) == n - 1  # one run is airborne: not stored

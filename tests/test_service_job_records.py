@@ -205,3 +205,22 @@ def test_every_job_file_damaged_at_once(
     statuses = {j["job_id"]: j["status"] for j in listed.json()}
     assert {statuses[i] for i in ids} == {"damaged"} and statuses["notes"] == "damaged"
     assert client.get("/health").status_code == 200
+
+
+def test_a_job_whose_record_cannot_be_written_is_not_queued(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A full disk while a job is submitted: 507, and nothing is left behind (no job listed as
+    queued forever, no spec file for a restart to list as damaged)."""
+    from bowlrec.archive import ArchiveWriteError
+
+    def full(self: JobManager, rec: Any, durable: bool = True) -> None:
+        raise ArchiveWriteError("could not write the record (No space left on device)")
+
+    monkeypatch.setattr(JobManager, "_persist", full)
+    app = create_app(tmp_path / "a", warm_up=False)
+    with TestClient(app, base_url="http://127.0.0.1") as client:
+        r = client.post("/jobs", json={"scenes": [{"delivery": {"speed_mps": 7.5}}]})
+        assert r.status_code == 507, r.text
+        assert client.get("/jobs").json() == []
+    assert list((tmp_path / "a" / "jobs").glob("*.spec.json")) == []

@@ -545,6 +545,14 @@ def test_redactor() -> None:
     assert redact(kept) == kept
 
 
+def test_a_relative_archive_root_is_redacted_only_as_a_path() -> None:
+    """``serve --archive data``: "data" is replaced where it is a path, not as a word."""
+    redact = Redactor("data")
+    assert redact("unable to parse raw data") == "unable to parse raw data"
+    assert redact("data/segments/x.h5: gone") == "ARCHIVE/segments/x.h5: gone"
+    assert redact("line one\nline\x00two") == "line one\nline\\x00two"
+
+
 # -- no 5xx for bad input ------------------------------------------------------------------------
 
 
@@ -591,3 +599,44 @@ def test_bad_input_gets_4xx_never_5xx(open_app: TestClient) -> None:
     for method, path, body in requests:
         r = open_app.request(method, path, json=body)
         assert 400 <= r.status_code < 500, (method, path, r.status_code, r.text)
+
+
+def test_recorded_runs_wait_for_a_slot_and_too_many_waiting_get_503() -> None:
+    """Recorded POST /runs simulate at most one per slot (a core) at once; at most 4 per slot
+    wait, and one more is refused at once (503), so waiting never takes every worker thread."""
+    import threading
+    import time
+
+    from bowlrec.service.app import RecordingSlots, ServerBusyError
+
+    slots = RecordingSlots(1)
+    entered = threading.Event()
+    release = threading.Event()
+    done: list[int] = []
+
+    def hold() -> None:
+        with slots.slot():
+            entered.set()
+            release.wait(30)
+
+    def wait_for_slot(i: int) -> None:
+        with slots.slot():
+            done.append(i)
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    assert entered.wait(30)
+    waiters = [threading.Thread(target=wait_for_slot, args=(i,)) for i in range(4)]
+    for t in waiters:
+        t.start()
+    deadline = time.monotonic() + 30
+    while slots._waiting < 4 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    with pytest.raises(ServerBusyError, match="the server is busy"), slots.slot():
+        pass
+    release.set()
+    for t in [holder, *waiters]:
+        t.join(30)
+    assert sorted(done) == [0, 1, 2, 3]
+    with slots.slot():  # free again
+        pass

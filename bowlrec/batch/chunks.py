@@ -47,6 +47,8 @@ __all__ = [
 
 #: outcomes that mean the model or the solver gave up: recorded as failures, not archived
 FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
+#: recorded samples a worker holds before it seals them as a segment (about 130 bytes each)
+SEAL_SAMPLES = 1_000_000
 #: summary metrics of every table row (units in the names)
 METRIC_COLUMNS = ("outcome", *FLOAT_METRICS, *INT_METRICS)
 #: event kind name -> the kernels' code
@@ -181,7 +183,8 @@ class ChunkResult:
     start: int
     stop: int
     table: ChunkTable
-    segment: SegmentInfo | None = None
+    #: the segments it sealed, in order (more than one when its samples exceeded SEAL_SAMPLES)
+    segments: list[SegmentInfo] = field(default_factory=list)
     records: list[RunRecord] = field(default_factory=list)
     #: summary-only runs as columns, for the parent to seal (worker cannot write)
     summary_runs: SummaryRuns | None = None
@@ -320,39 +323,65 @@ def _events(result: Any, i: int) -> list[tuple[str, float, str, float, float, fl
 
 
 class _Store:
-    """Collects a chunk's records; seals them as a segment (worker writes) or ships them."""
+    """Collects a chunk's records; seals them as segments (worker writes) or ships them.
+
+    A worker that writes seals what it holds as soon as it holds SEAL_SAMPLES samples, so a
+    chunk of recorded runs never holds more than that plus one run (at most
+    MAX_SAMPLES_PER_RUN samples) in memory, whatever its runs record."""
 
     def __init__(
-        self, archive: Archive | None, target: WriteTarget | None, samples: str = "gzip"
+        self,
+        archive: Archive | None,
+        target: WriteTarget | None,
+        result: ChunkResult,
+        samples: str = "gzip",
     ) -> None:
         self.archive = archive
         self.target = target
+        self.result = result
         self.samples = samples
         self.records: list[RunRecord] = []
-        self.builder: Any = None
-        self.provenance: dict[str, Any] | None = None
+        self.held = 0  # samples in self.records
+        self.logged = False
+        #: run IDs sealed so far (a later failed write fails only the others)
+        self.sealed: set[str] = set()
 
     def add(self, record: RunRecord) -> None:
         self.records.append(record)
+        column = next(iter(record.trajectory.values()), None)
+        self.held += 0 if column is None else len(column)
+        if self.held >= SEAL_SAMPLES and self.archive is not None:
+            self._seal()
 
-    def finish(self, result: ChunkResult) -> None:
-        if not self.records or self.target is None:
-            return
-        if self.archive is None:
-            result.records = self.records
-            return
+    def _seal(self) -> None:
+        """Seal the records held as one segment (nothing after a failed write)."""
         from bowlrec.archive import ArchiveWriteError
 
+        assert self.archive is not None and self.target is not None
+        if not self.records or self.result.error is not None:
+            return
         start = time.perf_counter()
         builder = self.archive.builder(samples=self.samples)
         for rec in self.records:
             builder.append(rec)
-        self.target.log_runs(result.table.index.tolist(), result.table.run_id)
+        if not self.logged:  # the run log names the chunk's runs before its first segment
+            self.target.log_runs(self.result.table.index.tolist(), self.result.table.run_id)
+            self.logged = True
         try:
-            result.segment = self.archive.seal(builder, durable=self.target.durable)
+            self.result.segments.append(self.archive.seal(builder, durable=self.target.durable))
+            self.sealed.update(rec.run_id for rec in self.records)
         except ArchiveWriteError as err:
-            result.error = str(err)
-        result.write_s += time.perf_counter() - start
+            self.result.error = str(err)
+        self.records, self.held = [], 0
+        self.result.write_s += time.perf_counter() - start
+
+    def finish(self) -> None:
+        if not self.records or self.target is None:
+            return
+        if self.archive is None:
+            self.result.records = self.records
+            return
+        self._seal()
 
 
 def _run_fast(
@@ -482,7 +511,7 @@ def _store_fast(
     else:
         task.target.log_runs(result.table.index.tolist(), result.table.run_id)
         try:
-            result.segment = archive.seal(runs, durable=task.target.durable)
+            result.segments.append(archive.seal(runs, durable=task.target.durable))
         except ArchiveWriteError as err:
             result.error = str(err)
     result.write_s += time.perf_counter() - start
@@ -503,13 +532,14 @@ def _copy_duplicates(
             table.has_metrics[i] = table.has_metrics[j]
 
 
-def _fail_unwritten(result: ChunkResult) -> None:
-    """After a failed write, the chunk's new runs are failed rows naming the error."""
+def _fail_unwritten(result: ChunkResult, sealed: set[str] | None = None) -> None:
+    """After a failed write, the chunk's new runs (but those in ``sealed``, archived by an
+    earlier segment of the chunk) are failed rows naming the error."""
     if result.error is None:
         return
     table = result.table
     for i, status in enumerate(table.status):
-        if status == "ok":
+        if status == "ok" and (sealed is None or table.run_id[i] not in sealed):
             table.status[i], table.error[i] = "failed", f"not archived: {result.error}"
 
 
@@ -540,7 +570,7 @@ def _run_general(
         elif p.run_id is not None:
             first.setdefault(p.run_id, i)
     todo = list(first.values())
-    store = _Store(archive, task.target, ctx.job.samples)
+    store = _Store(archive, task.target, result, ctx.job.samples)
     summary_only = [i for i in todo if _summary_only(prepared[i].plan)]
     recorded = [i for i in todo if i not in set(summary_only)]
     if summary_only:
@@ -548,8 +578,8 @@ def _run_general(
     for i in recorded:
         _general_recorded(ctx, task, prepared[i], i, table, store, result)
     _copy_duplicates(table, table.run_id, first)
-    store.finish(result)
-    _fail_unwritten(result)
+    store.finish()
+    _fail_unwritten(result, store.sealed)
     return result
 
 

@@ -227,9 +227,8 @@ def guard_fork_server() -> None:
         except OSError:
             pidfd = None
     # the pidfd was opened before these checks, so if the parent passes them it is the process
-    # the pidfd watches
-    if parent == 1:
-        _die()
+    # the pidfd watches. (Our parent may be pid 1: bowlrec itself in a container without an
+    # init process. A batch process that died before this ran no longer holds the pipe.)
     if isinstance(alive_r, int) and (_readable(alive_r) or _holds_pipe(parent, alive_r) is False):
         _die()  # the batch's process is gone already
     _server_pid, _server_fd, _prctl = os.getpid(), pidfd, _libc_prctl()

@@ -394,20 +394,23 @@ class _Orchestrator:
             t0 = time.perf_counter()
             try:
                 if res.records or res.summary_runs is not None:
-                    res.segment = self._seal_shipped(res)
+                    shipped = self._seal_shipped(res)
+                    res.segments += [] if shipped is None else [shipped]
                     _mark_present(res.table, self._present)
-                if res.segment is not None:
-                    path = self.archive.segments_dir / res.segment.path.name
-                    info = res.segment
-                    if path != info.path:
-                        from dataclasses import replace
+                if res.segments:
+                    from dataclasses import replace
 
-                        info = replace(info, path=path)
-                    self.archive.register([info])
+                    # the worker may see the archive under another path (a Dask worker)
+                    self.archive.register(
+                        [
+                            replace(s, path=self.archive.segments_dir / s.path.name)
+                            for s in res.segments
+                        ]
+                    )
             except ArchiveWriteError as err:
                 if r.error is None:
                     r.error = str(err)
-                if res.segment is None:  # nothing sealed: the new runs are not archived
+                if not res.segments:  # nothing sealed: the new runs are not archived
                     _fail_new(res.table, str(err))
             r.write_s += time.perf_counter() - t0
         self.emit(res.start, res.table)

@@ -19,6 +19,8 @@ import typer
 from ._app import app
 from ._common import ArchiveOption, fail, open_archive
 
+#: the largest request-body limit serve accepts (MiB): 4 GiB
+MAX_BODY_MB = 4096.0
 DEFAULT_TOKEN_ENV = "BOWLREC_TOKEN"
 #: the default request body limit, MiB (``--max-body-mb``)
 DEFAULT_MAX_BODY_MB = 32.0
@@ -104,8 +106,8 @@ def serve(
             f"{MIN_TOKEN_LENGTH} characters (it has {len(token)}); make one with python -c "
             "'import secrets; print(secrets.token_urlsafe(32))'"
         )
-    if max_body_mb <= 0:
-        fail("--max-body-mb must be greater than 0")
+    if not 0 < max_body_mb <= MAX_BODY_MB:  # also refuses nan and inf
+        fail(f"--max-body-mb must be in (0, {MAX_BODY_MB:g}] (got {max_body_mb!r})")
     max_body_bytes = int(max_body_mb * 1024 * 1024)
     try:
         import uvicorn

@@ -14,7 +14,9 @@ them -- or a bad run filter), 501 (an optional format library is not installed).
 never name a server path (the archive's root reads ``ARCHIVE``, other paths ``<path>``), and
 control characters in them are escaped. Malformed requests (a body that is not a JSON
 object, a query parameter of the wrong type) are 422 with the same lines: ``request body: not
-valid JSON (...)``, ``query parameter limit: ...``. Bad input is never 5xx.
+valid JSON (...)``, ``query parameter limit: ...``; a body nested too deeply to parse is 400
+(``There was an error parsing the body``). 503 (every recording slot is busy and enough
+recorded runs wait: retry). Bad input is never 5xx other than 503.
 
 Requests carrying the bearer token skip the Host and Origin checks; a browser authenticates
 with a cookie session (``POST /session``). See :mod:`bowlrec.service.security` and
@@ -28,7 +30,7 @@ import logging
 import math
 import os
 import threading
-from collections.abc import AsyncIterator, Callable, Iterable
+from collections.abc import AsyncIterator, Callable, Iterable, Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -139,6 +141,43 @@ JOB_EXAMPLE = {
 }
 
 
+class ServerBusyError(RuntimeError):
+    """Every recording slot is taken and enough requests wait for one (HTTP 503)."""
+
+
+class RecordingSlots:
+    """At most ``slots`` recorded simulations at once, and at most ``WAITING_PER_SLOT`` x
+    ``slots`` requests waiting for one; a request beyond that is refused at once
+    (:class:`ServerBusyError`), so waiting requests never take every worker thread."""
+
+    WAITING_PER_SLOT = 4
+
+    def __init__(self, slots: int) -> None:
+        self._slots = threading.BoundedSemaphore(slots)
+        self._max_waiting = self.WAITING_PER_SLOT * slots
+        self._waiting = 0
+        self._lock = threading.Lock()
+
+    @contextlib.contextmanager
+    def slot(self) -> Iterator[None]:
+        with self._lock:
+            if self._waiting >= self._max_waiting:
+                raise ServerBusyError(
+                    f"the server is busy: {self._max_waiting} recorded runs are waiting to be "
+                    "simulated; retry later, or record a summary only"
+                )
+            self._waiting += 1
+        try:
+            self._slots.acquire()
+        finally:
+            with self._lock:
+                self._waiting -= 1
+        try:
+            yield
+        finally:
+            self._slots.release()
+
+
 class _State:
     """What the endpoints share: the archive, the jobs and per-file generation locks."""
 
@@ -162,7 +201,7 @@ class _State:
         self.cache_dir = archive.root / "cache"
         #: recorded simulations at once: each may hold up to 2,000,000 samples (about 0.75 GB,
         #: benchmarks/results/hardening.md), so the server's memory is bounded by the core count
-        self.recordings = threading.BoundedSemaphore(os.cpu_count() or 1)
+        self.recordings = RecordingSlots(os.cpu_count() or 1)
         self._file_locks: dict[Path, threading.Lock] = {}
         self._mutex = threading.Lock()
 
@@ -226,7 +265,7 @@ def submit_scene(
     try:
         parsed = parse_scene_spec(scene, state.archive.balls)
         recorded = parsed.scene.options.record != "summary"
-        with state.recordings if recorded else contextlib.nullcontext():
+        with state.recordings.slot() if recorded else contextlib.nullcontext():
             result = state.archive.simulate(
                 parsed.scene, ball_ref=parsed.ball_ref, group=state.commits
             )
@@ -668,6 +707,10 @@ def create_app(
         # "field: message" lines as an invalid spec (FastAPI's list would echo a NaN input,
         # which JSON cannot carry)
         return JSONResponse({"detail": state.redact(request_error_text(err))}, status_code=422)
+
+    @app.exception_handler(ServerBusyError)
+    async def _busy(request: Request, err: ServerBusyError) -> JSONResponse:
+        return JSONResponse({"detail": str(err)}, status_code=503, headers={"Retry-After": "1"})
 
     @app.exception_handler(SpecError)
     async def _spec_error(request: Request, err: SpecError) -> JSONResponse:

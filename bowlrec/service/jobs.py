@@ -441,9 +441,13 @@ class JobManager:
                 f"could not store the job ({err.strerror or err}); nothing was queued"
             ) from None
         with self._mutex:
+            try:
+                self._persist(rec)
+            except ArchiveWriteError:  # nothing queued: no spec left for a restart to list
+                self._spec_path(rec.job_id).unlink(missing_ok=True)
+                raise
             self._records[rec.job_id] = rec
             self._cancel[rec.job_id] = threading.Event()
-            self._persist(rec)
         self._queue.put(rec.job_id)
         return self._status(rec)
 

@@ -39,9 +39,12 @@ class Redactor:
 
     def __call__(self, text: str) -> str:
         for root in self._roots:
-            text = text.replace(f" in archive {root}", "")
-            text = text.replace(f" of {root}", " of the archive")
-            text = re.sub(re.escape(root) + r"(?=/|\b|$)", "ARCHIVE", text)
+            if root.startswith("/"):
+                text = text.replace(f" in archive {root}", "")
+                text = text.replace(f" of {root}", " of the archive")
+                text = re.sub(re.escape(root) + r"(?=/|\b|$)", "ARCHIVE", text)
+            else:  # a relative root ("data") is a path only where a "/" follows it
+                text = re.sub(r"(?<![\w./-])" + re.escape(root) + r"(?=/)", "ARCHIVE", text)
         from bowlrec.spec.errors import printable
 
         text = _ABSOLUTE.sub(_path_or_text, text)

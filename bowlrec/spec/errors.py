@@ -10,6 +10,7 @@ it; mismatches alone at one field are joined into one line).
 
 from __future__ import annotations
 
+import re
 import unicodedata
 from collections.abc import Iterable, Mapping
 from typing import Any
@@ -24,7 +25,14 @@ MAX_LINE = 400
 
 # error types whose message already states the offending value
 _SELF_DESCRIBING = {"invalid_spec", "value_error", "assertion_error", "missing"}
-# location parts Pydantic names after a type rather than a field
+# location parts Pydantic names after a union member's type rather than a field: a schema tag
+# ("list[any]", "function-after[_same_length(), ZipSweep]", "tagged-union[...]"), a plain type,
+# or a model class of the spec (its name, e.g. "Linspace")
+_TYPE_TAG = re.compile(
+    r"(?:list|dict|tuple|set|frozenset|union|tagged-union|nullable|literal|function-\w+|"
+    r"lax-or-strict|json-or-python|definition-ref|chain|default|model|is-instance)\[.*\]\Z",
+    re.DOTALL,
+)
 _TYPE_NAMES = {"str", "int", "float", "bool", "none", "bytes"}
 
 
@@ -36,12 +44,28 @@ def format_loc(loc: tuple[int | str, ...]) -> str:
     return out or "scene"
 
 
-def _is_type_part(part: int | str) -> bool:
+def _is_type_part(part: int | str, models: frozenset[str]) -> bool:
     """A location part that names a union member's type (``list[any]``, ``Linspace``,
-    ``function-after[...]``), not a field: field names are lower-case identifiers."""
-    if not isinstance(part, str) or not part:
+    ``function-after[...]``), not a field or a key the user wrote (``delivery.omega_radps[1]``
+    as a sweep axis, ``Mass`` as an unknown field)."""
+    if not isinstance(part, str):
         return False
-    return "[" in part or part in _TYPE_NAMES or part[0].isupper()
+    return part in _TYPE_NAMES or bool(_TYPE_TAG.match(part)) or part in models
+
+
+def _model_names() -> frozenset[str]:
+    """Names of bowlrec's Pydantic models imported so far (union members are located by
+    them; computed per message, since models load lazily)."""
+    names: set[str] = set()
+    stack: list[type] = [BaseModel]
+    while stack:
+        cls = stack.pop()
+        subclasses: list[type] = cls.__subclasses__()
+        for sub in subclasses:
+            stack.append(sub)
+            if sub.__module__.startswith("bowlrec."):
+                names.add(sub.__name__)
+    return frozenset(names)
 
 
 def _is_mismatch(error: dict[str, Any]) -> bool:
@@ -96,8 +120,9 @@ def format_errors(details: Iterable[Mapping[str, Any]]) -> str:
     ``input``) as Pydantic and FastAPI report them. Every line is printable (control
     characters escaped, long values cut)."""
     errors: list[tuple[tuple[int | str, ...], dict[str, Any]]] = []
+    models = _model_names()
     for detail in details:
-        loc = tuple(p for p in detail["loc"] if not _is_type_part(p))
+        loc = tuple(p for p in detail["loc"] if not _is_type_part(p, models))
         errors.append((loc, dict(detail)))
     kept = []
     for loc, e in errors:

@@ -21,8 +21,9 @@ Why each bound:
 * g 100 m/s^2: 10 g.
 * max_time_s 10,000 s: the longest stress test runs 430 s of simulated time.
 * samples per run 2,000,000: the integrator's step limit, so ``record: steps`` (one sample per
-  step) and ``record: rate`` (max_time_s / record_dt_s samples) have the same bound: 2,000,000
-  samples of 16 float64 values are 256 MB.
+  step) and ``record: rate`` (max_time_s / record_dt_s samples, plus one at each event) have
+  the same bound: 2,000,000 samples of 16 float64 values are 256 MB; a run that records them
+  needs about 0.75 GB while it is simulated.
 * friction zones 256: a zone map becomes a grid of up to (2n + 1)^2 cells.
 """
 
