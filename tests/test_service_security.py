@@ -31,6 +31,10 @@ from bowlrec.archive import Archive, ArchiveWriteError, RunDamagedError  # noqa:
 from bowlrec.service.app import create_app  # noqa: E402
 from bowlrec.service.redact import Redactor  # noqa: E402
 
+if str(Path(__file__).parent) not in sys.path:
+    sys.path.insert(0, str(Path(__file__).parent))
+from test_service import start_server  # noqa: E402
+
 HERE = Path(__file__).parent
 CHILD = HERE / "service_child.py"
 TOKEN = "t0ken-" + "x" * 40
@@ -68,38 +72,10 @@ class ThreadServer:
         self.sock.close()
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def start_cli_server(archive: Path, *extra: str) -> tuple[subprocess.Popen[bytes], str]:
     """``bowlrec serve`` in a subprocess (no token); (process, url) once /health answers."""
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    for _ in range(3):
-        port = _free_port()
-        cmd = [sys.executable, str(CHILD), "--archive", str(archive), "--port", str(port)]
-        proc = subprocess.Popen(
-            [*cmd, "--log-level", "warning", *extra],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-        )
-        url = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            try:
-                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
-                    return proc, url
-            except httpx.TransportError:
-                time.sleep(0.05)
-        if proc.poll() is None:
-            proc.kill()
-        err = proc.communicate(timeout=10)[1].decode(errors="replace")
-        if "address already in use" not in err.lower():
-            raise RuntimeError(f"server did not start:\n{err}")
-    raise RuntimeError("no free port")
+    server = start_server(archive, None, *extra)
+    return server.proc, server.url
 
 
 def stop(proc: subprocess.Popen[bytes]) -> None:
@@ -522,6 +498,10 @@ def test_404_and_other_error_details_name_no_server_path(
         # a job that failed with a path in its error, and a failure row naming a file
         job_id = client.post("/jobs", json={"scenes": [{}]}).json()["job_id"]
         client.post(f"/jobs/{job_id}/cancel")
+        deadline = time.monotonic() + 60  # settled: the job thread no longer writes its record
+        while client.get(f"/jobs/{job_id}").json()["status"] in ("queued", "running"):
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
         with state.jobs._mutex:
             rec = state.jobs._records[job_id]
             rec.status, rec.error = "failed", f"FileNotFoundError: '{root}/jobs/{job_id}.spec.json'"
