@@ -685,8 +685,8 @@ def markdown(d: dict[str, Any]) -> str:
         f"included); this process and its workers held "
         f"{d['lazy_start']['rss_100k_mb']:.0f} MB at 100,000 runs and "
         f"{d['lazy_start']['rss_stop_mb']:.0f} MB at {d['lazy_start']['stop_runs']:,} runs "
-        f"({d['lazy_start']['rss_change_pct']:+.1f} %), when it was cancelled (its table still "
-        f"has all {d['lazy_start']['rows']:,} rows: the runs not reached are `cancelled`).",
+        f"({d['lazy_start']['rss_change_pct']:+.1f} %), when it was cancelled (its table has "
+        f"{d['lazy_start']['rows']:,} rows, up to the last run reached).",
         "",
         "## Targets",
         "",
