@@ -371,7 +371,7 @@ def test_a_bowler_scene_whose_physical_scene_is_invalid_says_so() -> None:
     assert "less than or equal to 10 (got 50.0)" in message
 
 
-def test_stopping_a_ten_million_run_job_is_immediate() -> None:
+def test_a_stopped_ten_million_run_job_ends_its_table_at_the_last_run_reached() -> None:
     """Cancelled after its first chunk, a 10,000,000-run job returns with a table that ends
     at the last run reached; the runs after it are counted, not written as rows."""
     import threading

@@ -587,7 +587,7 @@ def test_recorded_runs_wait_for_a_slot_and_too_many_waiting_get_503() -> None:
     import threading
     import time
 
-    from bowlrec.service.app import RecordingSlots, ServerBusyError
+    from bowlrec.service.slots import RecordingSlots, ServerBusyError
 
     slots = RecordingSlots(1)
     entered = threading.Event()

@@ -354,25 +354,27 @@ class _Store:
             self._seal()
 
     def _seal(self) -> None:
-        """Seal the records held as one segment (nothing after a failed write)."""
+        """Seal the records held as one segment and let them go. After a failed write they
+        are only let go: the chunk's runs not sealed become failed rows
+        (:func:`_fail_unwritten`)."""
         from bowlrec.archive import ArchiveWriteError
 
         assert self.archive is not None and self.target is not None
-        if not self.records or self.result.error is not None:
+        records, self.records, self.held = self.records, [], 0
+        if not records or self.result.error is not None:
             return
         start = time.perf_counter()
         builder = self.archive.builder(samples=self.samples)
-        for rec in self.records:
+        for rec in records:
             builder.append(rec)
         if not self.logged:  # the run log names the chunk's runs before its first segment
             self.target.log_runs(self.result.table.index.tolist(), self.result.table.run_id)
             self.logged = True
         try:
             self.result.segments.append(self.archive.seal(builder, durable=self.target.durable))
-            self.sealed.update(rec.run_id for rec in self.records)
+            self.sealed.update(rec.run_id for rec in records)
         except ArchiveWriteError as err:
             self.result.error = str(err)
-        self.records, self.held = [], 0
         self.result.write_s += time.perf_counter() - start
 
     def finish(self) -> None:

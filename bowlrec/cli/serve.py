@@ -16,6 +16,13 @@ from typing import Annotated
 
 import typer
 
+from bowlrec.service.names import (
+    DEFAULT_MAX_BODY_BYTES,
+    MIN_TOKEN_LENGTH,
+    host_name,
+    is_loopback_name,
+)
+
 from ._app import app
 from ._common import ArchiveOption, fail, open_archive
 
@@ -23,19 +30,13 @@ from ._common import ArchiveOption, fail, open_archive
 MAX_BODY_MB = 4096.0
 DEFAULT_TOKEN_ENV = "BOWLREC_TOKEN"
 #: the default request body limit, MiB (``--max-body-mb``)
-DEFAULT_MAX_BODY_MB = 32.0
-#: the shortest token accepted on a non-loopback host
-MIN_TOKEN_LENGTH = 32
+DEFAULT_MAX_BODY_MB = DEFAULT_MAX_BODY_BYTES / 2**20
 
 
 def is_loopback(host: str) -> bool:
     """True for localhost, 127.0.0.0/8 and ::1 (the only hosts served without a token)."""
-    if host.lower() == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host.strip("[]")).is_loopback
-    except ValueError:
-        return False
+    name = host_name(host)
+    return name is not None and is_loopback_name(name)
 
 
 @app.command("serve")
@@ -116,7 +117,6 @@ def serve(
     except ImportError as err:
         fail(f"bowlrec serve needs the service extra: pip install 'bowlrec[service]' ({err})")
     from bowlrec.service.jobs import JobsLockedError
-    from bowlrec.service.security import host_name
 
     allowed = list(allowed_host or [])
     for name in allowed:

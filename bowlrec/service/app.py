@@ -30,7 +30,7 @@ import logging
 import math
 import os
 import threading
-from collections.abc import AsyncIterator, Callable, Iterable, Iterator
+from collections.abc import AsyncIterator, Callable, Iterable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -71,6 +71,7 @@ from .models import (
     parse_ball_spec,
     parse_scene_spec,
 )
+from .names import host_name
 from .redact import Redactor
 from .security import (
     COOKIE_NAME,
@@ -78,9 +79,9 @@ from .security import (
     SecurityMiddleware,
     SessionStore,
     bearer_matches,
-    host_name,
     token_matches,
 )
+from .slots import RecordingSlots, ServerBusyError
 
 __all__ = ["create_app"]
 
@@ -139,43 +140,6 @@ JOB_EXAMPLE = {
         "value": {"name": "two", "scenes": [{"delivery": {"speed_mps": 7.5}}, {"name": "b"}]},
     },
 }
-
-
-class ServerBusyError(RuntimeError):
-    """Every recording slot is taken and enough requests wait for one (HTTP 503)."""
-
-
-class RecordingSlots:
-    """At most ``slots`` recorded simulations at once, and at most ``WAITING_PER_SLOT`` x
-    ``slots`` requests waiting for one; a request beyond that is refused at once
-    (:class:`ServerBusyError`), so waiting requests never take every worker thread."""
-
-    WAITING_PER_SLOT = 4
-
-    def __init__(self, slots: int) -> None:
-        self._slots = threading.BoundedSemaphore(slots)
-        self._max_waiting = self.WAITING_PER_SLOT * slots
-        self._waiting = 0
-        self._lock = threading.Lock()
-
-    @contextlib.contextmanager
-    def slot(self) -> Iterator[None]:
-        with self._lock:
-            if self._waiting >= self._max_waiting:
-                raise ServerBusyError(
-                    f"the server is busy: {self._max_waiting} recorded runs are waiting to be "
-                    "simulated; retry later, or record a summary only"
-                )
-            self._waiting += 1
-        try:
-            self._slots.acquire()
-        finally:
-            with self._lock:
-                self._waiting -= 1
-        try:
-            yield
-        finally:
-            self._slots.release()
 
 
 class _State:
@@ -590,16 +554,15 @@ def request_error_text(err: RequestValidationError) -> str:
     places = {"body": "request body", "query": "query parameter", "path": "path parameter"}
     details = []
     for e in err.errors():
-        loc = tuple(e.get("loc", ()))
-        head = places.get(str(loc[0]), str(loc[0])) if loc else "request"
-        rest = tuple(p for p in loc[1:] if not isinstance(p, int) or e["type"] != "json_invalid")
+        where, *rest = e.get("loc") or ("request",)
+        where = places.get(str(where), str(where))
         msg = str(e.get("msg", "invalid"))
-        if e["type"] == "json_invalid":
+        if e["type"] == "json_invalid":  # its location is a character position: left out
             reason = (e.get("ctx") or {}).get("error")
-            msg = f"not valid JSON ({reason})" if reason else "not valid JSON"
-        name = head if not rest or head != "query parameter" else f"{head} {rest[0]}"
-        rest = rest if head != "query parameter" else rest[1:]
-        details.append({**e, "loc": (name, *rest), "msg": msg})
+            msg, rest = (f"not valid JSON ({reason})" if reason else "not valid JSON"), []
+        if where == "query parameter" and rest:
+            where, rest = f"{where} {rest[0]}", rest[1:]
+        details.append({**e, "loc": (where, *rest), "msg": msg})
     return format_errors(details)
 
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import hashlib
 import hmac
-import ipaddress
 import json
 import secrets
 import threading
@@ -34,15 +33,14 @@ from urllib.parse import urlsplit
 from starlette.datastructures import Headers
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from .names import host_name, is_loopback_name
+
 __all__ = [
     "COOKIE_NAME",
     "DEFAULT_SESSION_TTL_S",
-    "MIN_TOKEN_LENGTH",
     "SecurityMiddleware",
     "SessionStore",
     "bearer_matches",
-    "host_name",
-    "is_loopback_name",
 ]
 
 #: the session cookie's name
@@ -51,55 +49,12 @@ COOKIE_NAME = "bowlrec_session"
 DEFAULT_SESSION_TTL_S = 12 * 3600.0
 #: open sessions kept at most (the oldest is dropped beyond this)
 MAX_SESSIONS = 1000
-#: the shortest token ``serve`` accepts on a non-loopback host
-MIN_TOKEN_LENGTH = 32
 #: methods that change state: these get the cross-site check
 UNSAFE_METHODS = frozenset({"POST", "PUT", "PATCH", "DELETE"})
 _DEFAULT_PORTS = {"http": 80, "https": 443, "ws": 80, "wss": 443}
 
 
 # -- names ---------------------------------------------------------------------------------------
-
-
-def host_name(value: str) -> str | None:
-    """The host name of a ``Host`` header or an allow-list entry, normalised: lower case, no
-    port, no trailing dot, IPv6 without brackets and in compressed form. None if malformed."""
-    value = value.strip().lower()
-    if not value:
-        return None
-    if value.startswith("["):
-        end = value.find("]")
-        if end < 0:
-            return None
-        name, rest = value[1:end], value[end + 1 :]
-        if rest and not (rest.startswith(":") and rest[1:].isdigit()):
-            return None
-        try:
-            return str(ipaddress.IPv6Address(name))
-        except ValueError:
-            return None
-    if value.count(":") > 1:  # a bare IPv6 address (an allow-list entry may be written so)
-        try:
-            return str(ipaddress.IPv6Address(value))
-        except ValueError:
-            return None
-    name, sep, port = value.partition(":")
-    if sep and not port.isdigit():
-        return None
-    name = name.rstrip(".")
-    if not name or any(c.isspace() or c in "/\\@?#" for c in name):
-        return None
-    return name
-
-
-def is_loopback_name(name: str) -> bool:
-    """``localhost``, 127.0.0.0/8 or ::1 (a name as :func:`host_name` returns it)."""
-    if name == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(name).is_loopback
-    except ValueError:
-        return False
 
 
 def bearer_matches(authorization: str | None, token: str | None) -> bool:

@@ -22,6 +22,8 @@ __all__ = ["format_errors", "format_loc", "format_validation_error", "printable"
 #: longest echo of an offending value in a message (its repr), and longest message line
 MAX_ECHO = 80
 MAX_LINE = 400
+#: room a cut line keeps for its note "... (N more characters)"
+_CUT_NOTE = 40
 
 # error types whose message already states the offending value
 _SELF_DESCRIBING = {"invalid_spec", "value_error", "assertion_error", "missing"}
@@ -79,15 +81,31 @@ def _shows_input(error: Any) -> bool:
 
 def printable(text: str, limit: int = MAX_LINE) -> str:
     """``text`` safe to print on one line: control and format characters (newlines, NUL,
-    bidirectional overrides) escaped, and cut after ``limit`` characters with a note of how
-    many more there were."""
-    out = "".join(
-        c.encode("unicode_escape").decode("ascii") if unicodedata.category(c).startswith("C") else c
-        for c in text[:limit]
-    )
-    if len(text) > limit:
-        out += f"... ({len(text) - limit:,} more characters)"
-    return out
+    bidirectional overrides) escaped, and at most ``limit`` characters, a longer text cut with
+    a note of how many characters are left out. Applying it again changes nothing, and it
+    reads at most ``limit`` characters of ``text`` however long that is."""
+    if len(text) <= limit and text.isprintable():
+        return text
+    budget = limit - _CUT_NOTE  # room for the note
+    pieces: list[str] = []
+    size = 0
+    kept: int | None = None  # characters of text that fit within the budget
+    for i, c in enumerate(text):
+        piece = c.encode("unicode_escape").decode("ascii") if _is_control(c) else c
+        if kept is None and size + len(piece) > budget:
+            kept = i
+        size += len(piece)
+        if size > limit:
+            break
+        pieces.append(piece)
+    else:
+        return "".join(pieces)  # the whole text fits
+    assert kept is not None
+    return "".join(pieces[:kept]) + f"... ({len(text) - kept:,} more characters)"
+
+
+def _is_control(c: str) -> bool:
+    return unicodedata.category(c).startswith("C")
 
 
 def _echo(value: Any) -> str:

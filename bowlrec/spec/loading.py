@@ -8,6 +8,7 @@ traceback.
 
 from __future__ import annotations
 
+import functools
 import json
 from pathlib import Path
 from typing import Any
@@ -74,30 +75,25 @@ def _parse_yaml(text: str) -> Any:
         raise SpecFileError(f"not valid YAML: {' '.join(str(err).split())}") from None
 
 
-_LOADER: type | None = None
-
-
+@functools.cache
 def _loader_class() -> type:
     """A ``yaml.SafeLoader`` that refuses aliases (built once, on first use)."""
-    global _LOADER
-    if _LOADER is None:
-        import yaml
-        from yaml.composer import ComposerError
+    import yaml
+    from yaml.composer import ComposerError
 
-        class NoAliasLoader(yaml.SafeLoader):
-            def compose_node(self, parent: Any, index: Any) -> Any:
-                if self.check_event(yaml.AliasEvent):
-                    event = self.peek_event()
-                    raise ComposerError(
-                        None,
-                        None,
-                        f"YAML aliases (*{event.anchor}) are not supported; write the value out",
-                        event.start_mark,
-                    )
-                return super().compose_node(parent, index)
+    class NoAliasLoader(yaml.SafeLoader):
+        def compose_node(self, parent: Any, index: Any) -> Any:
+            if self.check_event(yaml.AliasEvent):
+                event = self.peek_event()
+                raise ComposerError(
+                    None,
+                    None,
+                    f"YAML aliases (*{event.anchor}) are not supported; write the value out",
+                    event.start_mark,
+                )
+            return super().compose_node(parent, index)
 
-        _LOADER = NoAliasLoader
-    return _LOADER
+    return NoAliasLoader
 
 
 def _depth_exceeds(data: Any, limit: int) -> bool:
