@@ -386,7 +386,7 @@ def breakdown(
     """The writer's pieces on one segment's records, written to ``scratch`` (not the archive)."""
     from bowlrec.archive.segment import new_segment_id
     from bowlrec.archive.segment_file import write_segment
-    from bowlrec.sinks.atomic import fsync_dir
+    from bowlrec.atomic_files import fsync_dir
 
     scratch.mkdir(parents=True, exist_ok=True)
     rows: dict[str, list[float]] = {

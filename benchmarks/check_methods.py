@@ -20,9 +20,10 @@ from collections.abc import Callable
 from typing import Any
 
 from bowlrec.core.plan import Plan
+from bowlrec.testing.rk4 import paper_scheme
+from bowlrec.testing.scenes import table3_plans
 
-from .methods import bowlrec_solve, paper_scheme, scipy_solve
-from .scenes import table3_plans
+from .methods import bowlrec_solve, scipy_solve
 
 Method = Callable[[Plan], dict[str, Any]]
 

@@ -29,12 +29,13 @@ from typing import Any
 
 import numpy as np
 
-from bowlrec.core.plan import RECORD_SUMMARY, Plan
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.core.plan import Plan
 from bowlrec.core.solver import kernel_call, solve
 from bowlrec.readme_blocks import replace_block
+from bowlrec.testing.scenes import random_plans, table3_plans
 
 from .methods import run_method
-from .scenes import random_plans, table3_plans
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -40,7 +40,7 @@ def run_paper_cases(
     progress: Callable[[int], None] | None = None,
 ) -> list[ComparisonRow]:
     """Simulate the selected cases (default all 18) in both readings, summary only."""
-    from .core.plan import RECORD_SUMMARY
+    from .core.codes import RECORD_SUMMARY
     from .core.solver import solve
 
     wanted = set(cases) if cases is not None else None

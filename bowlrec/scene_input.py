@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.errors import BallNotFoundError, SceneInputError
+
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
     from bowlrec.bowling.scene import BowlerScene
@@ -35,10 +37,6 @@ __all__ = [
 
 #: a library lookup: "name" or "name@version" -> (ball spec as a mapping, "name@version")
 BallLookup = Callable[[str], tuple[dict[str, Any], str]]
-
-
-class SceneInputError(ValueError):
-    """An invalid scene; the message names the offending fields (one per line)."""
 
 
 @dataclass(frozen=True)
@@ -75,8 +73,6 @@ def library_lookup(balls: BallLibrary | None) -> BallLookup:
     """A :data:`BallLookup` over an archive's ball library."""
 
     def lookup(ref: str) -> tuple[dict[str, Any], str]:
-        from bowlrec.archive import BallNotFoundError
-
         if balls is None:
             raise SceneInputError(f"ball: library ball {ref!r}: no archive (ball library) here")
         try:

@@ -46,12 +46,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import hostile_inputs as hi  # tests/: pytest's pythonpath; the script's own dir in the worker
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-import hostile_inputs as hi  # noqa: E402
 
 #: address-space limit of the worker, subprocess and server processes
 MEM_LIMIT_BYTES = int(os.environ.get("BOWLREC_HOSTILE_MEM_GB", "6")) * 2**30

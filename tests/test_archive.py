@@ -13,21 +13,19 @@ import h5py
 import numpy as np
 import pytest
 
-from bowlrec.archive import (
-    Archive,
+from bowlrec.archive import Archive, SegmentFile, run_id
+from bowlrec.errors import (
     ArchiveError,
     BallNotFoundError,
+    IndexQueryError,
     RunDamagedError,
+    RunFileError,
     RunNotFoundError,
-    SegmentFile,
-    run_id,
 )
-from bowlrec.archive.index import IndexError_
 from bowlrec.paper import paper_scene
 from bowlrec.sinks import RunData
 from bowlrec.sinks.hdf5_run import (
     FORMAT_VERSION,
-    RunFileError,
     read_run_file,
     read_run_header,
     write_run_file,
@@ -211,9 +209,9 @@ def test_queries_filter_by_summary_ranges_outcome_pattern_and_ball(tmp_path: Pat
     assert len(archive.list_runs(ball="case16-ball@1", where=["speed_mps<8.5"])) == 2
     ordered = archive.list_runs(order_by="-speed_mps", where=["outcome=pins"])
     assert [r["speed_mps"] for r in ordered] == pytest.approx(sorted(speeds, reverse=True))
-    with pytest.raises(IndexError_, match="unknown column 'hookk_m'"):
+    with pytest.raises(IndexQueryError, match="unknown column 'hookk_m'"):
         archive.list_runs(where=["hookk_m>1"])
-    with pytest.raises(IndexError_, match="is not a number"):
+    with pytest.raises(IndexQueryError, match="is not a number"):
         archive.list_runs(where=["hook_m>abc"])
 
 

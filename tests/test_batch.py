@@ -20,7 +20,6 @@ from bowlrec.archive import Archive
 from bowlrec.batch import (
     METRIC_COLUMNS,
     BatchResult,
-    JobError,
     JobSpec,
     apply_override,
     job_schema_text,
@@ -31,6 +30,7 @@ from bowlrec.batch import (
     run_job,
     write_table,
 )
+from bowlrec.errors import JobError
 from bowlrec.spec import Ball, Scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,15 +54,6 @@ def grid_job(n_speed: int = 5, n_spin: int = 4, name: str = "grid") -> JobSpec:
 def comparable(result: BatchResult) -> list[tuple[Any, ...]]:
     """Run IDs and summary numbers of every row (statuses differ between fresh and rerun)."""
     return [(r["index"], r["run_id"], *(r[k] for k in METRIC_COLUMNS)) for r in result.rows]
-
-
-@pytest.fixture(scope="module", autouse=True)
-def _warm_kernels() -> None:
-    """Compile (or load) the kernels once so timings of the tests below are small."""
-    from bowlrec.core.solver import solve
-
-    solve(Scene.model_validate({"options": {"record": "summary"}}).resolve())
-    solve(Scene.model_validate({"ball": {"com_offset_m": [0.001, 0, 0]}}).resolve())
 
 
 # -- sweeps -----------------------------------------------------------------------------------

@@ -20,7 +20,8 @@ from bowlrec.bowling.delivery import (
 )
 from bowlrec.bowling.lane import BowlerLane, Handedness
 from bowlrec.bowling.units import FT_M, IN_M, MPH_MPS, RPM_RADPS
-from bowlrec.core.dynamics import N_PAR, N_STATE, P_R, slip
+from bowlrec.core.codes import N_STATE
+from bowlrec.core.dynamics import N_PAR, P_R, slip
 from bowlrec.spec import Ball, Delivery, Scene
 
 LANE = BowlerLane()

@@ -10,9 +10,10 @@ import pytest
 from bowlrec.api import simulate
 from bowlrec.bowling.delivery import BowlerDelivery, hooking_delivery
 from bowlrec.bowling.lane import BowlerLane, Handedness
-from bowlrec.bowling.report import BowlerReport, NoSamplesError, bowler_report
+from bowlrec.bowling.report import BowlerReport, bowler_report
 from bowlrec.bowling.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 from bowlrec.core.trajectory import Trajectory
+from bowlrec.errors import SamplesRequiredError
 from bowlrec.spec import Ball, Scene
 
 LANE = BowlerLane()
@@ -181,5 +182,5 @@ def test_gutter_ball_has_no_entry() -> None:
 
 def test_summary_only_runs_are_refused() -> None:
     trajectory = _run(HOOK, record="summary")
-    with pytest.raises(NoSamplesError, match="record = 'summary'"):
+    with pytest.raises(SamplesRequiredError, match="record = 'summary'"):
         bowler_report(trajectory, LANE)

@@ -11,9 +11,9 @@ from pydantic import ValidationError
 from typer.testing import CliRunner
 
 import bowlrec
-from bowlrec.bowling.legality import IllegalBallError
 from bowlrec.bowling.scene import BowlerScene
 from bowlrec.cli import app
+from bowlrec.errors import IllegalBallError
 from bowlrec.spec import load_scene
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "bowler" / "house-shot-right.json"

@@ -92,10 +92,10 @@ def test_import_bowlrec_does_not_load_numba_or_the_cli_stack() -> None:
     code = (
         "import sys, bowlrec, bowlrec.spec; "
         "print('numba' in sys.modules, 'rich' in sys.modules, "
-        "'bowlrec.core.integrator' in sys.modules)"
+        "'bowlrec.core.integrator' in sys.modules, 'bowlrec.testing' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["False", "False", "False"]
+    assert out.stdout.split() == ["False", "False", "False", "False"]
 
 
 def test_readme_table_is_the_computed_one() -> None:

@@ -173,7 +173,7 @@ def test_runs_export_several_runs_to_one_mcap(tmp_path: Path) -> None:
     for rid in ids:
         _, pos, _ = read_mcap_positions(out, run=rid)
         assert (pos == Archive(arch).load(rid).trajectory.position_m).all()
-    assert "only be exported to one .mcap" in _fails(
+    assert "several runs go into one .mcap" in _fails(
         2, "runs", "export", *ids, "-a", arch, "--out", str(tmp_path / "x.rrd")
     )
 

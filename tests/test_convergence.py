@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import pytest
 
-from bowlrec.core.plan import RECORD_SUMMARY
+from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.core.solver import solve
 from bowlrec.paper import paper_scene
 from bowlrec.spec import Options

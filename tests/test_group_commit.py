@@ -5,8 +5,9 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
-from bowlrec.archive import Archive, ArchiveWriteError
+from bowlrec.archive import Archive
 from bowlrec.archive.group_commit import GroupCommitter
+from bowlrec.errors import ArchiveWriteError
 from bowlrec.spec import Scene
 
 

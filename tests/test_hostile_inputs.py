@@ -33,7 +33,6 @@ import json
 import math
 import os
 import re
-import sys
 import threading
 import time
 from collections.abc import Callable
@@ -41,14 +40,11 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+import hostile_child as hc
+import hostile_inputs as hi
 import pytest
 
 HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-import hostile_child as hc  # noqa: E402
-import hostile_inputs as hi  # noqa: E402
 
 pytest.importorskip("fastapi")
 pytest.importorskip("httpx")

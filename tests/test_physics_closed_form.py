@@ -34,7 +34,7 @@ import math
 import numpy as np
 import pytest
 
-from bowlrec.core.plan import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
+from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
 from bowlrec.core.solver import solve
 from bowlrec.spec import Scene
 

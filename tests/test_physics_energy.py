@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pytest
 
-from bowlrec.core.plan import RECORD_RATE, RECORD_STEPS
+from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
 from bowlrec.core.solver import solve
 from bowlrec.spec import Scene
 

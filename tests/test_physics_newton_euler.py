@@ -42,16 +42,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bowlrec.core.dynamics import (
-    PHASE_ROLL,
-    PHASE_SLIDE,
-    energy_per_mass,
-    pack_params,
-    rhs,
-    roll_accel,
-    slide_accel,
-    slip,
-)
+from bowlrec.core.codes import PHASE_ROLL, PHASE_SLIDE
+from bowlrec.core.dynamics import energy_per_mass, pack_params, rhs, roll_accel, slide_accel, slip
 from bowlrec.core.terms import INERTIA_TERMS, TORQUE_TERMS, equation_terms
 
 G = 9.81

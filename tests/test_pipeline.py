@@ -218,16 +218,6 @@ def same_bits(a: np.ndarray, b: np.ndarray) -> bool:
     )
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _warm_kernels() -> None:
-    """Compile (or load) the kernels once so the timings below are small."""
-    from bowlrec.core.batch import run_batch
-
-    plan = Scene.model_validate(case16()).resolve()
-    solve(plan)
-    run_batch(pack_plans([plan]), parallel=False)
-
-
 # -- 1. fast preparation ----------------------------------------------------------------------
 
 

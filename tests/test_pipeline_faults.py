@@ -107,15 +107,6 @@ def require_slow_selected(request: pytest.FixtureRequest) -> None:
         pytest.skip("heavy fault variant: select it with -m slow")
 
 
-@pytest.fixture(scope="module", autouse=True)
-def _warm_kernels() -> None:
-    """Compile (or load from numba's cache) the kernels once, before any child needs them."""
-    from bowlrec.core.solver import solve
-    from bowlrec.spec import Scene
-
-    solve(Scene.model_validate({"options": {"record": "summary"}}).resolve())
-
-
 # -- the job -------------------------------------------------------------------------------------
 
 

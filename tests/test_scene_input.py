@@ -11,8 +11,9 @@ import pytest
 from bowlrec.archive import Archive
 from bowlrec.batch import JobSpec, run_job
 from bowlrec.bowling.ball import BowlerBall
-from bowlrec.scene_input import SceneInputError, is_bowler, parse_scene, parse_scene_file
-from bowlrec.service.models import SpecError, parse_scene_spec
+from bowlrec.errors import SceneInputError, SpecError
+from bowlrec.scene_input import is_bowler, parse_scene, parse_scene_file
+from bowlrec.service.models import parse_scene_spec
 from bowlrec.spec import Ball, Scene
 
 ROOT = Path(__file__).resolve().parents[1]

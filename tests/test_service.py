@@ -50,16 +50,6 @@ def sampled_scene() -> dict[str, Any]:
     }
 
 
-@pytest.fixture(scope="session", autouse=True)
-def _warm_kernel_cache() -> None:
-    """Compile the kernels once here so the server processes load them from numba's cache."""
-    import bowlrec
-    from bowlrec.spec import Scene
-
-    bowlrec.simulate(Scene.model_validate(summary_scene(0)))
-    bowlrec.simulate(Scene.model_validate(sampled_scene()))
-
-
 def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))

@@ -212,7 +212,7 @@ def test_a_job_whose_record_cannot_be_written_is_not_queued(
 ) -> None:
     """A full disk while a job is submitted: 507, and nothing is left behind (no job listed as
     queued forever, no spec file for a restart to list as damaged)."""
-    from bowlrec.archive import ArchiveWriteError
+    from bowlrec.errors import ArchiveWriteError
 
     def full(self: JobManager, rec: Any, durable: bool = True) -> None:
         raise ArchiveWriteError("could not write the record (No space left on device)")

@@ -26,14 +26,12 @@ pytest.importorskip("fastapi")
 uvicorn = pytest.importorskip("uvicorn")
 
 from fastapi.testclient import TestClient  # noqa: E402
+from test_service import start_server  # noqa: E402
 
-from bowlrec.archive import Archive, ArchiveWriteError, RunDamagedError  # noqa: E402
+from bowlrec.archive import Archive  # noqa: E402
+from bowlrec.errors import ArchiveWriteError, RunDamagedError  # noqa: E402
 from bowlrec.service.app import create_app  # noqa: E402
 from bowlrec.service.redact import Redactor  # noqa: E402
-
-if str(Path(__file__).parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).parent))
-from test_service import start_server  # noqa: E402
 
 HERE = Path(__file__).parent
 CHILD = HERE / "service_child.py"
@@ -487,12 +485,14 @@ def test_404_and_other_error_details_name_no_server_path(
         assert r.status_code == 409 and "run 0123456789abcdef0123" in r.json()["detail"]
         details.append(r.json()["detail"])
 
-        def no_mcap(*args: Any, **kw: Any) -> Any:
-            raise ImportError(f"cannot import name 'x' from 'mcap' ({root}/lib/mcap/__init__.py)")
+        def no_foxglove(name: str) -> Any:  # the MCAP writer's library is not installed
+            raise ImportError(f"No module named 'foxglove' ({root}/lib/foxglove)", name="foxglove")
 
-        monkeypatch.setattr(state.archive, "run_data", no_mcap)
-        r = client.get("/runs/0123456789abcdef0123/files/mcap")
-        assert r.status_code == 501
+        with monkeypatch.context() as m:
+            m.setattr(state.archive, "run_data", lambda rid: object())
+            m.setattr("bowlrec.sinks.registry.importlib.import_module", no_foxglove)
+            r = client.get("/runs/0123456789abcdef0123/files/mcap")
+        assert r.status_code == 501 and "pip install 'bowlrec[mcap]'" in r.json()["detail"]
         details.append(r.json()["detail"])
 
         # a job that failed with a path in its error, and a failure row naming a file
@@ -587,7 +587,8 @@ def test_recorded_runs_wait_for_a_slot_and_too_many_waiting_get_503() -> None:
     import threading
     import time
 
-    from bowlrec.service.slots import RecordingSlots, ServerBusyError
+    from bowlrec.errors import ServerBusyError
+    from bowlrec.service.slots import RecordingSlots
 
     slots = RecordingSlots(1)
     entered = threading.Event()

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from bowlrec.core.batch import EVENT_CAP, batch_metrics, pack_plans, run_batch
-from bowlrec.core.plan import RECORD_SUMMARY, Plan
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.core.plan import Plan
 from bowlrec.core.solver import (
     ORIENTATION_GAIN,
     needs_orientation,

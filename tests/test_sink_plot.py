@@ -14,8 +14,9 @@ from matplotlib.lines import Line2D
 from matplotlib.quiver import Quiver
 
 import bowlrec
+from bowlrec.errors import SamplesRequiredError
 from bowlrec.paper import paper_scene
-from bowlrec.sinks import RunData, SamplesRequiredError
+from bowlrec.sinks import RunData
 from bowlrec.sinks.plot import (
     N_AXIS_ARROWS,
     PAPER_EXAGGERATION,

@@ -26,10 +26,10 @@ import rerun_cli
 from rerun.chunk import RrdReader
 
 import bowlrec
-from bowlrec.sinks import RunData, SamplesRequiredError, rerun_recording
+from bowlrec.errors import SamplesRequiredError, ViewerUnavailableError
+from bowlrec.sinks import RunData, rerun_recording
 from bowlrec.sinks.common import friction_cells, markings_body, quaternion_xyzw
 from bowlrec.sinks.rerun_recording import (
-    ViewerUnavailableError,
     read_rrd_positions,
     read_rrd_series,
     recording_id,

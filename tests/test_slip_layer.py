@@ -14,23 +14,17 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from benchmarks.scenes import random_plans
-from bowlrec.core.dynamics import (
-    N_STATE,
-    P_SLAYER,
-    PHASE_SLIDE,
-    radial_direction,
-    rhs,
-    roll_accel,
-    slip,
-    slip_rate,
-)
-from bowlrec.core.integrator import _dense, _dense_coeffs, _event_values, _may_cross, _stages
-from bowlrec.core.plan import RECORD_SUMMARY
+from bowlrec.core.codes import PHASE_SLIDE, RECORD_SUMMARY
+from bowlrec.core.dopri5 import dense, dense_coeffs, stages
+from bowlrec.core.dynamics import P_SLAYER, radial_direction, rhs, roll_accel, slip, slip_rate
+from bowlrec.core.events import N_KINEMATIC, kinematic_values, may_cross
+from bowlrec.core.integrator import new_workspace
+from bowlrec.core.records import FrictionLaw, RunSettings
 from bowlrec.core.solver import initial_state, kernel_params, solve
 from bowlrec.paper import paper_scene
+from bowlrec.testing.scenes import random_plans
 
-#: the benchmark's random deliveries by name (summary-only plans)
+#: the reference random deliveries by name (summary-only plans; the benchmark's too)
 PLANS = dict(random_plans())
 
 
@@ -89,18 +83,12 @@ def test_radial_direction_drives_the_slip_straight_to_zero() -> None:
 
 def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
     """Over random steps of random balls, wherever an event function changes sign on the
-    step's dense output (sampled at 400 points), ``_may_cross`` must not skip the scan.
+    step's dense output (sampled at 400 points), ``may_cross`` must not skip the scan.
     Boundaries are placed right next to where the step ends or passes, so crossings occur."""
     rng = np.random.default_rng(11)
-    K = np.empty((7, N_STATE))
-    ytmp = np.empty(N_STATE)
-    ynew = np.empty(N_STATE)
-    rc = np.empty((5, N_STATE))
-    yb = np.empty(N_STATE)
-    g0 = np.empty(12)
-    g1 = np.empty(12)
-    gm = np.empty(12)
-    bounds = np.empty(6)
+    ws = new_workspace()
+    K, ynew, rc, yb, bounds = ws.K, ws.ynew, ws.rc, ws.ybuf, ws.bounds
+    g0, g1, gm = ws.gprev, ws.gcur, ws.gv
     n_cross = 0
     n_skipped = 0
     plans = list(PLANS.values())
@@ -114,11 +102,13 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
         sn = math.hypot(*s)
         uxr, uyr = s[0] / sn, s[1] / sn
         h = 10 ** rng.uniform(-4, -1.3)
+        law = FrictionLaw(PHASE_SLIDE, mu, uxr, uyr)
+        run = RunSettings(par, 1e-6, 0, 0.0, par[P_SLAYER], True, 1e-5, 1e300, 10**9, 0)
         rhs(y, par, PHASE_SLIDE, mu, uxr, uyr, True, K[0])
-        _stages(0.0, y, h, K, ytmp, ynew, par, PHASE_SLIDE, mu, uxr, uyr, True)
-        _dense_coeffs(y, ynew, K, h, rc)
+        stages(y, h, ws, law, run)
+        dense_coeffs(y, ynew, K, h, rc)
         theta = rng.uniform(0.0, 1.0)
-        _dense(rc, theta, yb)
+        dense(rc, theta, yb)
         off_x = rng.normal() * 10 ** rng.uniform(-9, -1)
         off_y = rng.normal() * 10 ** rng.uniform(-9, -2)
         # a cell edge in x just before or after the step's end, one in y next to the dense path
@@ -128,18 +118,18 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
         bounds[3] = yb[1] + off_y if off_y >= 0.0 else 1e300
         bounds[4] = 1e300
         bounds[5] = 1e300
-        _event_values(y, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], g0)
-        _event_values(ynew, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], g1)
-        if not (g0[:10] >= 0.0).all():
+        kinematic_values(y, law, run, bounds, g0)
+        kinematic_values(ynew, law, run, bounds, g1)
+        if not (g0[:N_KINEMATIC] >= 0.0).all():
             continue
         crossed = False
         for th in np.linspace(0.0, 1.0, 401):
-            _dense(rc, th, yb)
-            _event_values(yb, par, PHASE_SLIDE, mu, uxr, uyr, bounds, 0, 0.0, par[P_SLAYER], gm)
-            if (gm[:10] < 0.0).any():
+            dense(rc, th, yb)
+            kinematic_values(yb, law, run, bounds, gm)
+            if (gm[:N_KINEMATIC] < 0.0).any():
                 crossed = True
                 break
-        may = _may_cross(g0, g1, K, h, par, PHASE_SLIDE)
+        may = may_cross(g0, g1, K, h, par, PHASE_SLIDE)
         if crossed:
             n_cross += 1
             assert may, (trial, h, off_x, off_y)

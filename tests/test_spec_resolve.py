@@ -9,14 +9,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bowlrec.core.plan import (
+from bowlrec.core.codes import (
     RECORD_RATE,
     RECORD_STEPS,
     RECORD_SUMMARY,
     SLIDE_TO_ROLL_EXACT,
     SLIDE_TO_ROLL_THRESHOLD,
-    Plan,
 )
+from bowlrec.core.plan import Plan
 from bowlrec.spec import Ball, Delivery, Lane, Options, Scene
 from bowlrec.spec.rotation import matrix_to_quaternion, perpendicular, quaternion_to_matrix
 

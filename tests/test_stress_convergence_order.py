@@ -19,17 +19,16 @@ rtol by default) so that every run integrates the same equations.
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from bowlrec.core.plan import RECORD_RATE, RECORD_STEPS, Plan
+from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
+from bowlrec.core.plan import Plan
 from bowlrec.core.solver import solve
 from bowlrec.spec import Options, Scene
+from bowlrec.testing.rk4 import paper_scheme
 
 T_END = 1.0
 RTOLS = [1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10, 3e-11, 1e-11]
@@ -170,34 +169,16 @@ def test_dense_output_converges_at_the_same_rate() -> None:
     assert -6.5 <= slope <= -3.5, slope
 
 
-def _paper_scheme():  # type: ignore[no-untyped-def]
-    """The paper's fixed-step scheme: bowlrec itself has no option selecting a method or a fixed
-    step (Options / Plan); the repository's benchmarks/methods.py has ``paper_scheme(plan, dt)``
-    (classical RK4 with a fixed step on bowlrec's right-hand side). None if neither exists."""
+def test_paper_fixed_step_rk4_is_fourth_order() -> None:
+    """Fixed-step RK4 (the paper's scheme, :func:`bowlrec.testing.rk4.paper_scheme`; bowlrec's
+    solver has no fixed-step method) on the same smooth problem: error of (x, y) at t = 1 s
+    against the DP5 reference at rtol 1e-13, dt = 2^-5..2^-10 s (32..1024 steps; powers of two
+    so that the steps add up to exactly 1 s). Slope vs n_steps -4 (measured -4.01), accepted
+    [-4.5, -3.5]."""
     names = set(Options.model_fields) | {f.name for f in dataclasses.fields(Plan)}
     if names & {"method", "integrator", "scheme", "fixed_step_s", "step_s", "dt_s", "h_s"}:
         pytest.skip("bowlrec grew a method option: test its order here")
-    root = Path(__file__).resolve().parents[1]
-    if not (root / "benchmarks" / "methods.py").is_file():
-        return None
-    sys.path.insert(0, str(root))
-    try:
-        module = importlib.import_module("benchmarks.methods")
-    except ImportError:
-        return None
-    finally:
-        sys.path.remove(str(root))
-    return getattr(module, "paper_scheme", None)
-
-
-def test_paper_fixed_step_rk4_is_fourth_order() -> None:
-    """Fixed-step RK4 (the paper's scheme, from benchmarks/methods.py; bowlrec exposes no
-    fixed-step method) on the same smooth problem: error of (x, y) at t = 1 s against the DP5
-    reference at rtol 1e-13, dt = 2^-5..2^-10 s (32..1024 steps; powers of two so that the steps
-    add up to exactly 1 s). Slope vs n_steps -4 (measured -4.01), accepted [-4.5, -3.5]."""
-    paper_scheme = _paper_scheme()
-    if paper_scheme is None:
-        pytest.skip("no fixed-step scheme available (bowlrec has none; benchmarks/ absent)")
+    pytest.importorskip("scipy")  # numba's np.linalg.solve in the scheme's kernel
     plan = smooth_plan()
     ref = solve(dataclasses.replace(plan, rtol=RTOL_REF, record_mode=RECORD_STEPS)).summary
     steps, errs = [], []

@@ -21,7 +21,7 @@ import pytest
 from scene_builders import scene
 
 from bowlrec import simulate
-from bowlrec.core.plan import RECORD_SUMMARY
+from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.core.solver import solve
 from bowlrec.spec import Scene
 

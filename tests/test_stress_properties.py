@@ -36,8 +36,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from bowlrec.core.codes import EVENT_KINDS, OUTCOMES
 from bowlrec.core.solver import slip_layer, solve
-from bowlrec.core.trajectory import EVENT_KINDS, OUTCOMES, Trajectory
+from bowlrec.core.trajectory import Trajectory
 from bowlrec.spec import Scene
 
 R = 0.1085

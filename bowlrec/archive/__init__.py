@@ -10,13 +10,21 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.errors import (
+    ArchiveError,
+    ArchiveWriteError,
+    BallNotFoundError,
+    RunDamagedError,
+    RunNotFoundError,
+    SegmentError,
+)
+
 # the function, not its module: ``bowlrec.archive.run_id`` would otherwise become the module
 # ``run_id.py`` as soon as anything imported it (a submodule import sets the package attribute)
 from .run_id import run_id
 
 if TYPE_CHECKING:
-    from .balls import BallEntry, BallLibrary, BallNotFoundError, ball_sha, parse_ball_ref
-    from .errors import RunDamagedError, SegmentError
+    from .balls import BallEntry, BallLibrary, ball_sha, parse_ball_ref
     from .index import Filter
     from .location import default_archive_path
     from .segment import RunRecord, SegmentBuilder, SegmentInfo, SummaryRuns
@@ -26,9 +34,6 @@ if TYPE_CHECKING:
         ARCHIVE_FORMAT_VERSION,
         AddResult,
         Archive,
-        ArchiveError,
-        ArchiveWriteError,
-        RunNotFoundError,
     )
 
 #: public name -> the module that defines it
@@ -37,18 +42,12 @@ _WHERE = {
     "ARCHIVE_FORMAT_VERSION": "store",
     "AddResult": "store",
     "Archive": "store",
-    "ArchiveError": "store",
-    "ArchiveWriteError": "store",
     "BallEntry": "balls",
     "BallLibrary": "balls",
-    "BallNotFoundError": "balls",
     "Filter": "index",
-    "RunDamagedError": "errors",
-    "RunNotFoundError": "store",
     "RunRecord": "segment",
     "SegmentBuilder": "segment",
     "SummaryRuns": "segment",
-    "SegmentError": "errors",
     "SegmentFile": "segment_file",
     "SegmentInfo": "segment",
     "ball_sha": "balls",

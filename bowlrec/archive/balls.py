@@ -22,6 +22,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
+from bowlrec.errors import BallNotFoundError, BallRefError, SpecError
+
 from .index import transaction
 
 if TYPE_CHECKING:
@@ -50,13 +52,6 @@ BALL_FILE_FORMAT = "bowlrec-ball"
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9 ._+\-]{0,99}")
 
 
-class BallNotFoundError(KeyError):
-    """No library entry under that name (and version)."""
-
-    def __str__(self) -> str:  # KeyError quotes its message; show it plainly
-        return str(self.args[0])
-
-
 def parse_ball(data: dict[str, Any]) -> AnyBall:
     """A physical :class:`~bowlrec.spec.Ball` or, when the mapping is a spec sheet (it has
     ``weight_lb``), a :class:`~bowlrec.bowling.ball.BowlerBall`."""
@@ -81,7 +76,7 @@ def parse_ball_ref(ref: str) -> tuple[str, int | None]:
     if not sep:
         return ref, None
     if not re.fullmatch(r"[0-9]{1,9}", version) or int(version) < 1:
-        raise ValueError(f"ball reference {ref!r}: the version after '@' must be an integer >= 1")
+        raise BallRefError(f"ball reference {ref!r}: the version after '@' must be an integer >= 1")
     return name, int(version)
 
 
@@ -158,8 +153,8 @@ class BallLibrary:
 
     def add(self, name: str, ball: AnyBall, note: str = "") -> tuple[BallEntry, bool]:
         """Store ``ball`` under ``name``; returns (entry, True if a new version was created)."""
-        if not _NAME.fullmatch(name):
-            raise ValueError(
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            raise BallRefError(
                 f"ball name {name!r}: use 1-100 letters, digits, spaces and . _ + - "
                 "(starting with a letter or digit; '@' separates the version)"
             )
@@ -183,7 +178,7 @@ class BallLibrary:
                 "note": note,
                 "spec": ball.model_dump(mode="json"),
             }
-            from bowlrec.sinks.atomic import atomic_path
+            from bowlrec.atomic_files import atomic_path
 
             with atomic_path(self._dir(name) / f"{version}.json", hold_lock=True) as tmp:
                 tmp.write_text(json.dumps(doc, indent=1) + "\n")
@@ -267,7 +262,7 @@ class BallLibrary:
             "balls": [e.to_json_dict() for e in self.list(all_versions=True)],
         }
         if path is not None:
-            from bowlrec.sinks.atomic import atomic_path
+            from bowlrec.atomic_files import atomic_path
 
             with atomic_path(path) as tmp:
                 tmp.write_text(json.dumps(doc, indent=2) + "\n")
@@ -280,22 +275,35 @@ class BallLibrary:
 
         Specs identical to any version already under that name are skipped, so importing twice
         adds nothing.
-        Version numbers are assigned by this library (they continue its own sequence).
+        Version numbers are assigned by this library (they continue its own sequence). Raises
+        :class:`~bowlrec.errors.SpecError` for a document that is not an export or holds an
+        invalid spec (nothing is added then).
         """
+        from pydantic import ValidationError
+
+        from bowlrec.spec import format_validation_error
+
         doc = source if isinstance(source, dict) else json.loads(Path(source).read_text())
-        if doc.get("format") != LIBRARY_FORMAT:
-            raise ValueError(
-                f"not a ball library export (format = {doc.get('format')!r}, "
-                f"expected {LIBRARY_FORMAT!r})"
-            )
-        items = sorted(doc.get("balls", []), key=lambda b: (b["name"], b.get("version", 0)))
+        try:
+            if doc.get("format") != LIBRARY_FORMAT:
+                raise SpecError(
+                    f"not a ball library export (format = {doc.get('format')!r}, "
+                    f"expected {LIBRARY_FORMAT!r})"
+                )
+            items = sorted(doc.get("balls", []), key=lambda b: (b["name"], b.get("version", 0)))
+            parsed = [
+                (item["name"], parse_ball(item["spec"]), item.get("note", "")) for item in items
+            ]
+        except ValidationError as err:
+            raise SpecError(format_validation_error(err)) from None
+        except (AttributeError, KeyError, TypeError) as err:
+            raise SpecError(f"not a ball library document: {err}") from None
         out = []
-        for item in items:
-            ball = parse_ball(item["spec"])
+        for name, ball, note in parsed:
             sha = ball_sha(ball)
-            same = [e for e in self.list(item["name"], all_versions=True) if e.sha == sha]
+            same = [e for e in self.list(name, all_versions=True) if e.sha == sha]
             if same:
                 out.append((same[-1], False))
             else:
-                out.append(self.add(item["name"], ball, note=item.get("note", "")))
+                out.append(self.add(name, ball, note=note))
         return out

@@ -15,12 +15,13 @@ from collections import defaultdict
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.sinks.atomic import fsync_dir
+from bowlrec.atomic_files import fsync_dir
+from bowlrec.errors import RunDamagedError, SegmentError
 
 from .index import transaction
 from .registry import register_segment
 from .segment import RunRecord, SegmentBuilder, SegmentInfo
-from .segment_file import RunDamagedError, SegmentError, SegmentFile
+from .segment_file import SegmentFile
 from .tombstones import TOMBSTONE_FORMAT, Tombstone, read_tombstones
 
 if TYPE_CHECKING:
@@ -140,7 +141,7 @@ def _now() -> str:
 def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
     """Damaged copies outlive their tombstones as quarantine reports (``runs list --damaged``
     still lists them after an index rebuild)."""
-    from bowlrec.sinks.atomic import atomic_path
+    from bowlrec.atomic_files import atomic_path
 
     from .repair import QUARANTINE_FORMAT
 
@@ -166,7 +167,7 @@ def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
 def _drop_applied_tombstones(archive: Archive, con: Any, removed: set[str]) -> int:
     """Delete the tombstones of the segments this compaction deleted (index rows and files);
     the count of tombstone files deleted."""
-    from bowlrec.sinks.atomic import atomic_path
+    from bowlrec.atomic_files import atomic_path
 
     deleted = 0
     with transaction(con, write=True):

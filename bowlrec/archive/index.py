@@ -21,6 +21,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from bowlrec.errors import IndexQueryError, IndexUnreadableError
+
 __all__ = [
     "COMPARISONS",
     "INDEX_COLUMNS",
@@ -28,7 +30,7 @@ __all__ = [
     "NUMERIC_COLUMNS",
     "RUN_TABLE_COLUMNS",
     "Filter",
-    "IndexError_",
+    "IndexQueryError",
     "IndexUnreadableError",
     "create_schema",
     "open_index",
@@ -172,14 +174,6 @@ CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
 
 
-class IndexError_(ValueError):  # noqa: N801 - "IndexError" is a builtin
-    """A bad query on the index (unknown column, bad comparison or value)."""
-
-
-class IndexUnreadableError(RuntimeError):
-    """The index file is missing, damaged or of another format (it can be rebuilt)."""
-
-
 def create_schema(con: sqlite3.Connection) -> None:
     """Create the tables (a no-op where they exist) and stamp the index format."""
     con.executescript(_SCHEMA)
@@ -284,18 +278,18 @@ class Filter:
 
     def __init__(self, column: str, op: str, value: Any) -> None:
         if column not in INDEX_COLUMNS:
-            raise IndexError_(
+            raise IndexQueryError(
                 f"unknown column {column!r} in filter; columns: {', '.join(INDEX_COLUMNS)}"
             )
         if op not in COMPARISONS:
-            raise IndexError_(f"unknown comparison {op!r}; use one of {' '.join(COMPARISONS)}")
+            raise IndexQueryError(f"unknown comparison {op!r}; use one of {' '.join(COMPARISONS)}")
         if column == "created_at":
             value = _epoch_ns(value)
         if column in NUMERIC_COLUMNS and not isinstance(value, int | float):
             try:
                 value = float(value)
             except (TypeError, ValueError):
-                raise IndexError_(
+                raise IndexQueryError(
                     f"filter {column}{op}{value!r}: {column} is numeric, {value!r} is not a number"
                 ) from None
         self.column, self.op, self.value = column, op, value
@@ -307,7 +301,7 @@ class Filter:
             if op in text:
                 column, value = text.split(op, 1)
                 return cls(column.strip(), op, value.strip())
-        raise IndexError_(
+        raise IndexQueryError(
             f"cannot parse filter {text!r}: expected column<op>value with op in "
             f"{' '.join(COMPARISONS)}, e.g. hook_m>=0.1"
         )
@@ -324,7 +318,7 @@ def _epoch_ns(value: Any) -> int:
     try:
         stamp = datetime.fromisoformat(str(value))
     except ValueError:
-        raise IndexError_(
+        raise IndexQueryError(
             f"filter created_at: {value!r} is not an ISO 8601 time (e.g. 2026-11-24T16:00:00)"
         ) from None
     if stamp.tzinfo is None:
@@ -344,7 +338,7 @@ def select_sql(
     ``clauses`` are extra (sql, params) conditions on table ``r`` ANDed with the filters.
     """
     if order_by.lstrip("-") not in INDEX_COLUMNS:
-        raise IndexError_(f"cannot order by unknown column {order_by!r}")
+        raise IndexQueryError(f"cannot order by unknown column {order_by!r}")
     params: list[Any] = [p for _, ps in clauses for p in ps]
     clauses_sql = [f"({c})" for c, _ in clauses]
     for f in filters:

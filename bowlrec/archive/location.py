@@ -16,6 +16,8 @@ import os
 import tomllib
 from pathlib import Path
 
+from bowlrec.errors import ConfigError
+
 __all__ = ["ENV_ARCHIVE", "config_path", "config_value", "default_archive_path"]
 
 ENV_ARCHIVE = "BOWLREC_ARCHIVE"
@@ -31,14 +33,15 @@ def config_path() -> Path:
 
 
 def config_value(key: str) -> str | None:
-    """A top-level string entry of the config file (None when the file or key is missing)."""
+    """A top-level string entry of the config file (None when the file or key is missing);
+    :class:`~bowlrec.errors.ConfigError` when the file is not valid TOML."""
     cfg = config_path()
     if not cfg.is_file():
         return None
     try:
         data = tomllib.loads(cfg.read_text())
     except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"{cfg}: not valid TOML ({err})") from None
+        raise ConfigError(f"{cfg}: not valid TOML ({err})") from None
     value = data.get(key)
     return None if value is None else str(value)
 

@@ -22,11 +22,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bowlrec.sinks.atomic import fsync_dir, remove_stale_parts
+from bowlrec.atomic_files import fsync_dir, remove_stale_parts
+from bowlrec.errors import SegmentError
 
 from .index import create_schema, forget_connections, new_index, transaction
 from .registry import INSERT_RUN, index_rows, register_segment
-from .segment_file import SegmentError, SegmentFile
+from .segment_file import SegmentFile
 from .tombstones import Tombstone, read_tombstones, write_tombstone
 
 if TYPE_CHECKING:

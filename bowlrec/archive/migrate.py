@@ -21,6 +21,8 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from bowlrec.errors import MigrationError, RunFileError
+
 __all__ = ["V1_BACKUP", "MigrationError", "migrate"]
 
 #: where the 1.0 files go (inside the archive)
@@ -35,10 +37,6 @@ _PROVENANCE_KEYS = (
     "h5py_version",
     "hdf5_version",
 )
-
-
-class MigrationError(RuntimeError):
-    """The directory cannot be migrated (not an archive, or of an unknown format)."""
 
 
 @contextlib.contextmanager
@@ -106,9 +104,9 @@ def migrate(
     """Convert the format 1.0 archive at ``root`` to 2.0 in place; a report (counts, the run
     files that could not be read, where the 1.0 files were kept). ``progress(done, total)`` is
     called as run files are converted."""
-    from bowlrec.sinks.atomic import atomic_path
+    from bowlrec.atomic_files import atomic_path
     from bowlrec.sinks.common import RunData
-    from bowlrec.sinks.hdf5_run import RunFileError, read_run_file
+    from bowlrec.sinks.hdf5_run import read_run_file
 
     from .balls import BALL_FILE_FORMAT, ball_sha
     from .segment import RunRecord, SegmentBuilder

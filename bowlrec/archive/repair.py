@@ -18,13 +18,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.sinks.atomic import atomic_path, fsync_dir
+from bowlrec.atomic_files import atomic_path, fsync_dir
+from bowlrec.errors import SegmentError
 
 from .index import transaction
 from .maintenance import promote_copies, recover
 from .registry import register_segment
 from .segment import SegmentBuilder
-from .segment_file import SegmentError, SegmentFile
+from .segment_file import SegmentFile
 
 if TYPE_CHECKING:
     import sqlite3

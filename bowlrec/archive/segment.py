@@ -445,7 +445,16 @@ class SummaryRuns:
     def columns(self) -> dict[str, Any]:
         """Every dataset of a segment holding these runs (as :meth:`SegmentBuilder.columns`
         makes them for the same runs appended as records)."""
-        from bowlrec.core.trajectory import EVENT_KINDS
+        from bowlrec.core.codes import (
+            EV_KIND,
+            EV_MU,
+            EV_PHASE,
+            EV_T,
+            EV_X,
+            EV_Y,
+            EVENT_KINDS,
+            PHASE_NAMES,
+        )
 
         n = len(self)
         runs: dict[str, NDArray[Any]] = {}
@@ -467,13 +476,14 @@ class SummaryRuns:
         offsets = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(self.n_events, out=offsets[1:])
         kinds = {code: name.encode() for code, name in EVENT_KINDS.items()}
+        phases = {code: name.encode() for code, name in PHASE_NAMES.items()}
         events: dict[str, NDArray[Any]] = {
-            "kind": _fixed([kinds[int(c)] for c in rows[:, 1]]),
-            "mu": rows[:, 4].copy(),
-            "phase": _fixed([b"rolling" if r == 1.0 else b"sliding" for r in rows[:, 5]]),
-            "t_s": rows[:, 0].copy(),
-            "x_m": rows[:, 2].copy(),
-            "y_m": rows[:, 3].copy(),
+            "kind": _fixed([kinds[int(c)] for c in rows[:, EV_KIND]]),
+            "mu": rows[:, EV_MU].copy(),
+            "phase": _fixed([phases[int(r)] for r in rows[:, EV_PHASE]]),
+            "t_s": rows[:, EV_T].copy(),
+            "x_m": rows[:, EV_X].copy(),
+            "y_m": rows[:, EV_Y].copy(),
             "offsets": offsets,
         }
         no_samples = np.zeros((0, 0), dtype=np.uint8)

@@ -21,11 +21,11 @@ import h5py
 import numpy as np
 from numpy.typing import NDArray
 
+from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
-from bowlrec.sinks.atomic import atomic_path
+from bowlrec.errors import RunDamagedError, SegmentError
 from bowlrec.sinks.units import DIMENSIONLESS, units_for
 
-from .errors import RunDamagedError, SegmentError
 from .segment import (
     EVENT_FIELDS,
     RUN_FLOAT_COLUMNS,
@@ -43,7 +43,7 @@ from .segment import (
     sample_columns,
 )
 
-__all__ = ["RunDamagedError", "SegmentError", "SegmentFile", "StoredRecord", "write_segment"]
+__all__ = ["SegmentFile", "StoredRecord", "write_segment"]
 
 #: datasets whose values are text or bookkeeping: units "1" and what the values mean
 _MEANINGS = {

@@ -33,12 +33,20 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.errors import (
+    ArchiveError,
+    ArchiveWriteError,
+    IndexUnreadableError,
+    RunDamagedError,
+    RunNotFoundError,
+    SegmentError,
+)
+
 from .balls import BallLibrary, ball_sha
 from .index import (
     FROM_RUNS,
     SELECT_COLUMNS,
     Filter,
-    IndexUnreadableError,
     iso_time,
     listed_row,
     open_index,
@@ -78,21 +86,6 @@ _ARCHIVE_ENTRIES = {
     "index.sqlite",
     "index.sqlite-journal",
 }
-
-
-class ArchiveError(RuntimeError):
-    """The directory is not a usable archive."""
-
-
-class ArchiveWriteError(OSError):
-    """Writing to the archive failed (full disk, no permission); nothing stored was lost."""
-
-
-class RunNotFoundError(KeyError):
-    """No run with that ID (or ID prefix) in the archive."""
-
-    def __str__(self) -> str:
-        return str(self.args[0])
 
 
 @dataclass(frozen=True)
@@ -176,7 +169,7 @@ class Archive:
 
     def _create(self, marker: Path) -> None:
         """Make a new archive; safe when several processes create the same one at once."""
-        from bowlrec.sinks.atomic import atomic_path
+        from bowlrec.atomic_files import atomic_path
 
         self.root.mkdir(parents=True, exist_ok=True)
         with self.writer_lock():
@@ -445,7 +438,6 @@ class Archive:
         from bowlrec.sinks.common import RunData
 
         from .run_id import run_id as content_id
-        from .segment_file import RunDamagedError
 
         plan = scene.resolve()
         rid = content_id(plan)
@@ -640,8 +632,6 @@ class Archive:
         from bowlrec.sinks.hdf5_run import StoredRun
         from bowlrec.spec import Scene
 
-        from .errors import RunDamagedError, SegmentError
-
         found = self.locate(run_id)
         if found is None:
             run_id = self.resolve_id(run_id)
@@ -702,32 +692,36 @@ class Archive:
                 self._open_segments.popitem()[1].close()
 
     def run_data(self, run_id: str) -> RunData:
-        """A stored run as the sinks take it (the plan re-resolved from the stored scene)."""
+        """A stored run as the sinks take it: the plan re-resolved from the stored scene, the
+        provenance as its run file stores it (the stored attributes that are single values,
+        and the segment holding the run)."""
         from bowlrec.sinks.common import RunData
 
         stored = self.load(run_id)
-        return RunData(stored.scene, stored.scene.resolve(), stored.trajectory, stored.run_id)
+        own = ("format", "format_version", "run_id", "name", "scene_json", "segment_id")
+        provenance = {
+            k: v
+            for k, v in stored.attrs.items()
+            if k not in own and isinstance(v, str | int | float | bool)
+        }
+        found = self.locate(stored.run_id)
+        if found is not None:
+            provenance["segment_id"] = found[0]
+        return RunData(
+            stored.scene, stored.scene.resolve(), stored.trajectory, stored.run_id, provenance
+        )
 
     def export(self, run_id: str, dest: str | os.PathLike[str]) -> Path:
         """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, with the
-        resolved parameters) at ``dest`` (a file or an existing directory)."""
-        from bowlrec.sinks.common import RunData
-        from bowlrec.sinks.hdf5_run import write_run_file
+        resolved parameters and the run's provenance) at ``dest`` (a file or an existing
+        directory)."""
+        from bowlrec.sinks.registry import sink_named
 
-        rid = self.resolve_id(run_id)
-        stored = self.load(rid)
+        run = self.run_data(run_id)
         dest = Path(dest)
         if dest.is_dir():
-            dest = dest / f"{rid}.h5"
-        attrs = {
-            k: v
-            for k, v in stored.attrs.items()
-            if k not in ("format", "format_version", "run_id", "name", "scene_json", "segment_id")
-            and isinstance(v, str | int | float | bool)
-        }
-        attrs["segment_id"] = self.locate(rid)[0]  # type: ignore[index]
-        run = RunData(stored.scene, stored.scene.resolve(), stored.trajectory, rid)
-        return write_run_file(dest, run, attrs)
+            dest = dest / f"{run.run_id}.h5"
+        return sink_named("hdf5").write(run, dest)
 
     def info(self) -> dict[str, Any]:
         """Format, counts and sizes on disk (bytes) of the archive's parts."""

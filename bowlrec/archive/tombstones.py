@@ -15,7 +15,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
-from bowlrec.sinks.atomic import atomic_path
+from bowlrec.atomic_files import atomic_path
 
 __all__ = ["TOMBSTONE_FORMAT", "Tombstone", "read_tombstones", "write_tombstone"]
 

@@ -15,10 +15,11 @@ or, from a notebook, :func:`simulate_many` (a table back, nothing stored by defa
 Imports neither numba nor dask until something is run.
 """
 
+from bowlrec.errors import JobError
+
 from .chunks import FAILED_OUTCOMES, METRIC_COLUMNS, ChunkTable
 from .job import (
     JOB_FORMAT,
-    JobError,
     JobSpec,
     Point,
     PreparedRun,

@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bowlrec.core.trajectory import EVENT_KINDS, FLOAT_METRICS, INT_METRICS
+from bowlrec.core.codes import EVENT_KINDS, PHASE_NAMES, ROLLING
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive, RunRecord, SegmentInfo, SummaryRuns
@@ -303,20 +304,29 @@ def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
 
 def _events(result: Any, i: int) -> list[tuple[str, float, str, float, float, float]] | None:
     """Run ``i``'s events from the batch output (None when it had more than the batch keeps)."""
-    from bowlrec.core.batch import EVENT_CAP
-    from bowlrec.core.trajectory import EVENT_KINDS
+    from bowlrec.core.batch import B_EVENTS, EVENT_CAP
+    from bowlrec.core.codes import (
+        EV_KIND,
+        EV_MU,
+        EV_PHASE,
+        EV_T,
+        EV_X,
+        EV_Y,
+        EVENT_KINDS,
+        PHASE_NAMES,
+    )
 
-    n = int(result.out[i, -1])
+    n = int(result.out[i, B_EVENTS])
     if n > EVENT_CAP:
         return None
     return [
         (
-            EVENT_KINDS[int(row[1])],
-            float(row[4]),
-            "rolling" if row[5] == 1.0 else "sliding",
-            float(row[0]),
-            float(row[2]),
-            float(row[3]),
+            EVENT_KINDS[int(row[EV_KIND])],
+            float(row[EV_MU]),
+            PHASE_NAMES[int(row[EV_PHASE])],
+            float(row[EV_T]),
+            float(row[EV_X]),
+            float(row[EV_Y]),
         )
         for row in result.events[i, :n]
     ]
@@ -357,7 +367,7 @@ class _Store:
         """Seal the records held as one segment and let them go. After a failed write they
         are only let go: the chunk's runs not sealed become failed rows
         (:func:`_fail_unwritten`)."""
-        from bowlrec.archive import ArchiveWriteError
+        from bowlrec.errors import ArchiveWriteError
 
         assert self.archive is not None and self.target is not None
         records, self.records, self.held = self.records, [], 0
@@ -456,10 +466,11 @@ def _store_fast(
     ok: np.ndarray,
 ) -> None:
     """Store the chunk's successful runs ``rows`` (kernel rows where ``ok``) as one segment."""
-    from bowlrec.archive import ArchiveWriteError, SummaryRuns
+    from bowlrec.archive import SummaryRuns
     from bowlrec.archive.balls import ball_sha
     from bowlrec.archive.store import pattern_label
     from bowlrec.core.batch import B_EVENTS, EVENT_CAP
+    from bowlrec.errors import ArchiveWriteError
 
     assert task.target is not None
     start = time.perf_counter()
@@ -477,7 +488,14 @@ def _store_fast(
         wider[:, : events.shape[1]] = events
         for j, evs in full.items():
             wider[j, : len(evs)] = [
-                (e.t_s, _EVENT_CODES[e.kind], e.x_m, e.y_m, e.mu, float(e.phase == "rolling"))
+                (
+                    e.t_s,
+                    _EVENT_CODES[e.kind],
+                    e.x_m,
+                    e.y_m,
+                    e.mu,
+                    float(e.phase == PHASE_NAMES[ROLLING]),
+                )
                 for e in evs
             ]
         events = wider
@@ -597,7 +615,7 @@ def _settle_row(table: ChunkTable, i: int, summary: Summary) -> bool:
 
 
 def _summary_only(plan: Plan | None) -> bool:
-    from bowlrec.core.plan import RECORD_SUMMARY
+    from bowlrec.core.codes import RECORD_SUMMARY
 
     return plan is not None and plan.record_mode == RECORD_SUMMARY
 
@@ -703,19 +721,15 @@ def _replays(ctx: JobContext, prep: PreparedRun, traj: Any, result: ChunkResult)
     if not ctx.formats or ctx.replay_dir is None:
         return
     from bowlrec.sinks.common import RunData
+    from bowlrec.sinks.registry import sink_named
 
     assert prep.scene is not None and prep.plan is not None
     run = RunData(prep.scene, prep.plan, traj, prep.run_id)
     folder = Path(ctx.replay_dir)
     folder.mkdir(parents=True, exist_ok=True)
-    if "mcap" in ctx.formats:
-        from bowlrec.sinks.mcap_file import write_mcap
-
-        result.replays.append(write_mcap(run, folder / f"{prep.run_id}.mcap"))
-    if "rrd" in ctx.formats:
-        from bowlrec.sinks.rerun_recording import write_rrd
-
-        result.replays.append(write_rrd(run, folder / f"{prep.run_id}.rrd"))
+    for name in ctx.formats:
+        sink = sink_named(name)
+        result.replays.append(sink.write(run, folder / f"{prep.run_id}{sink.suffix}"))
 
 
 def new_probe(root: Path) -> tuple[str, str]:

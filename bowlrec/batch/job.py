@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from bowlrec.errors import JobError, SceneInputError
 from bowlrec.spec._base import spec_error
 
 if TYPE_CHECKING:
@@ -83,10 +84,6 @@ MAX_JOB_RUNS = 10_000_000
 MAX_HYPERCUBE_VALUES = 20_000_000
 
 PathKey = str | int
-
-
-class JobError(ValueError):
-    """The job itself is invalid (a bad path, a value invalid on its own, a missing file)."""
 
 
 class _JobModel(BaseModel):
@@ -315,7 +312,9 @@ class JobSpec(_JobModel):
 
     @model_validator(mode="after")
     def _formats_need_samples(self) -> JobSpec:
-        if self.formats and self.record == "summary":
+        from bowlrec.sinks.registry import sink_named
+
+        if self.record == "summary" and any(sink_named(f).needs_samples for f in self.formats):
             raise ValueError(
                 f"formats = {self.formats} need samples: set record to 'trajectory' or 'scene'"
             )
@@ -532,7 +531,6 @@ def job_schema_text() -> str:
 def library_lookup(balls: BallLibrary | None) -> BallLookup:
     """A :data:`~bowlrec.scene_input.BallLookup` over an archive's ball library that raises
     JobError (a job naming a ball that does not exist is wrong as a whole)."""
-    from bowlrec.scene_input import SceneInputError
     from bowlrec.scene_input import library_lookup as scene_lookup
 
     inner = scene_lookup(balls)
@@ -663,7 +661,7 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
 def _library_ball(data: dict[str, Any], lookup: BallLookup) -> tuple[dict[str, Any], str | None]:
     """The mapping with a library reference at ``ball`` replaced by its spec (a physical ball
     in a physical scene, a spec sheet in a bowler scene) and the reference used."""
-    from bowlrec.scene_input import SceneInputError, with_library_ball
+    from bowlrec.scene_input import with_library_ball
 
     try:
         return with_library_ball(data, lookup)
@@ -685,7 +683,7 @@ def prepare_one(
     """Validate, convert (bowler scenes: :func:`bowlrec.scene_input.parse_scene`), resolve and
     hash one scene mapping (its library ball already substituted)."""
     from bowlrec.archive import run_id
-    from bowlrec.scene_input import SceneInputError, parse_scene
+    from bowlrec.scene_input import parse_scene
 
     try:
         scene = parse_scene(data).scene

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel
 
+from bowlrec.errors import MissingExtraError
+
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
 
@@ -85,9 +87,10 @@ def simulate_many(
         try:
             import pyarrow  # noqa: F401
         except ImportError:
-            raise ImportError(
+            raise MissingExtraError(
                 "simulate_many(output='arrow') needs pyarrow: pip install 'bowlrec[table]', "
-                "or pass output='numpy'"
+                "or pass output='numpy'",
+                name="pyarrow",
             ) from None
     job, base_dir = _as_job(scenes_or_job)
     store = None

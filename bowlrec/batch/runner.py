@@ -35,6 +35,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.errors import MissingExtraError
+
 from .chunks import (
     FAILED_OUTCOMES,
     METRIC_COLUMNS,
@@ -229,9 +231,11 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
         try:
             from distributed import Client
         except ImportError as err:
-            raise RuntimeError(
-                "--scheduler needs dask.distributed: pip install 'bowlrec[dask]'"
-            ) from err
+            raise MissingExtraError(
+                "--scheduler needs dask.distributed, which is not installed; install it with: "
+                "pip install 'bowlrec[dask]'",
+                name=err.name,
+            ) from None
         with Client(scheduler, set_as_default=False) as client:
             nthreads = sum(client.nthreads().values()) or 1
             yield _Workers(client.get_executor(pure=False), nthreads)
@@ -379,7 +383,7 @@ class _Orchestrator:
 
     def take(self, res: ChunkResult) -> None:
         """A finished chunk: store what the worker could not, register what it sealed."""
-        from bowlrec.archive import ArchiveWriteError
+        from bowlrec.errors import ArchiveWriteError
 
         r = self.result
         r.simulated += res.simulated
@@ -485,7 +489,7 @@ def run_job(
     ``durable`` fsyncs every sealed segment. Raises JobError for an invalid job before anything
     runs.
     """
-    from bowlrec.archive import ArchiveWriteError
+    from bowlrec.errors import ArchiveWriteError
 
     start = time.perf_counter()
     ctx = job_context(

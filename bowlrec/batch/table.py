@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS
+from bowlrec.errors import MissingExtraError
 
 from .chunks import METRIC_COLUMNS, ChunkTable
 
@@ -241,7 +242,7 @@ class TableWriter:
     def __init__(
         self, paths: Sequence[Path], param_columns: Sequence[str], types: dict[str, str]
     ) -> None:
-        from bowlrec.sinks.atomic import atomic_path
+        from bowlrec.atomic_files import atomic_path
 
         self.paths = [Path(p) for p in paths]
         self.params = list(param_columns)
@@ -254,7 +255,11 @@ class TableWriter:
         for path in self.paths:
             suffix = path.suffix.lower()
             if suffix == ".parquet" and not self._has_arrow:
-                raise RuntimeError(f"{path}: Parquet needs pyarrow: pip install 'bowlrec[table]'")
+                raise MissingExtraError(
+                    f"{path}: Parquet needs pyarrow, which is not installed; install it with: "
+                    "pip install 'bowlrec[table]'",
+                    name="pyarrow",
+                )
             path.parent.mkdir(parents=True, exist_ok=True)
             tmp = self._stack.enter_context(atomic_path(path))
             self._writers.append((suffix, tmp, None))

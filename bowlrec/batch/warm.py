@@ -13,7 +13,7 @@ guard_fork_server()
 
 def _warm() -> None:
     from bowlrec.core.batch import pack_plans, run_batch
-    from bowlrec.core.plan import RECORD_SUMMARY
+    from bowlrec.core.codes import RECORD_SUMMARY
     from bowlrec.core.solver import solve
     from bowlrec.spec import Scene
 

@@ -24,6 +24,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Literal
 
+from bowlrec.errors import IllegalBallError
+
 from .ball import BowlerBall, StaticWeights
 
 __all__ = [
@@ -146,21 +148,6 @@ class LegalityReport:
         if self.is_legal:
             return f"{head}: legal"
         return f"{head}: ILLEGAL\n" + "\n".join(f"  - {v}" for v in self.violations)
-
-
-class IllegalBallError(ValueError):
-    """The ball breaks the selected rules and simulating it was not explicitly allowed."""
-
-    def __init__(self, report: LegalityReport) -> None:
-        broken = "; ".join(
-            f"{v.rule} {v.value:.6g} {v.unit} (limit {v.limit:.6g} {v.unit})"
-            for v in report.violations
-        )
-        super().__init__(
-            f"ball {report.ball_name!r} is illegal under rule set '{report.rule_set}': {broken}; "
-            "set allow_illegal to true to simulate it anyway"
-        )
-        self.report = report
 
 
 def _rule_set(rules: RuleSetName | RuleSet) -> RuleSet:

@@ -39,22 +39,18 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bowlrec.core.codes import ROLLING
 from bowlrec.core.trajectory import Trajectory
+from bowlrec.errors import SamplesRequiredError
 
 from .delivery import axis_angles_deg
 from .lane import BowlerLane, Handedness
 from .units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
-__all__ = ["BowlerReport", "NoSamplesError", "bowler_report"]
+__all__ = ["BowlerReport", "bowler_report"]
 
-#: Trajectory.phase value of a rolling sample (0 sliding, 1 rolling)
-PHASE_ROLLING = 1
 #: bisection steps when solving x(s) = X on one step (2**-60 of the step: below rounding)
 _BISECTIONS = 60
-
-
-class NoSamplesError(ValueError):
-    """The trajectory holds no samples (a summary-only run): a bowler's report needs the path."""
 
 
 @dataclass(frozen=True)
@@ -105,7 +101,8 @@ def bowler_report(
 ) -> BowlerReport:
     """The bowler's report of ``trajectory`` on ``lane`` by ``handedness`` (module doc).
 
-    Raises :class:`NoSamplesError` for a run recorded without samples (``record: summary``)."""
+    Raises :class:`~bowlrec.errors.SamplesRequiredError` for a run recorded without samples
+    (``record: summary``)."""
     path = _Path.of(trajectory)
     release = path.state(0, 0.0)
     arrows = path.state_at_x(ARROWS_FT * FT_M)
@@ -150,7 +147,7 @@ def _slide_m(trajectory: Trajectory) -> float | None:
     that rolls from the release (the summary then reports no slide_to_roll event: None)."""
     if trajectory.summary.slide_m is not None:
         return trajectory.summary.slide_m
-    if int(trajectory.phase[0]) == PHASE_ROLLING:
+    if int(trajectory.phase[0]) == ROLLING:
         return float(trajectory.position_m[0, 0])
     return None
 
@@ -228,9 +225,10 @@ class _Path:
 
     @classmethod
     def of(cls, trajectory: Trajectory) -> _Path:
-        """The path of a recorded trajectory; :class:`NoSamplesError` if it has no samples."""
+        """The path of a recorded trajectory; :class:`~bowlrec.errors.SamplesRequiredError`
+        if it has no samples."""
         if trajectory.n_samples == 0:
-            raise NoSamplesError(
+            raise SamplesRequiredError(
                 "the trajectory has no samples (it was recorded with options.record = "
                 "'summary'); a bowler's report interpolates the path: record 'steps' or 'rate'"
             )

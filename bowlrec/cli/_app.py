@@ -2,7 +2,25 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
+from typer.core import TyperGroup
+
+
+class _Commands(TyperGroup):
+    """The command group: an error raised by any command (sub-commands included) goes through
+    :func:`bowlrec.cli._common.exit_for`, the one place errors become exit codes."""
+
+    def invoke(self, ctx: Any) -> Any:  # typer's bundled click.Context
+        try:
+            return super().invoke(ctx)
+        except Exception as err:
+            from ._common import exit_for
+
+            exit_for(err)
+            raise
+
 
 app = typer.Typer(
     name="bowlrec",
@@ -11,6 +29,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    cls=_Commands,
 )
 
 

@@ -1,4 +1,9 @@
-"""Helpers shared by the CLI commands: errors, scene loading, the archive option, progress."""
+"""Helpers shared by the CLI commands: errors, scene loading, the archive option, progress.
+
+Errors: a command lets every :class:`~bowlrec.errors.BowlrecError` propagate; the application
+(:mod:`bowlrec.cli._app`) hands it to :func:`exit_for`, which prints one ``error:`` line and
+exits with its category's code in :data:`EXIT_CODES`.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
+
+from bowlrec.errors import (
+    BowlrecError,
+    BusyError,
+    ConflictError,
+    DamagedError,
+    InputError,
+    NotFoundError,
+    StorageError,
+    UnavailableError,
+)
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -44,6 +60,41 @@ def fail(message: str, code: int = 2) -> NoReturn:
     raise typer.Exit(code)
 
 
+#: the exit code of each category of error (the first category an error belongs to): 2 for
+#: what the command line asked that cannot be done as asked (fix the input or the request),
+#: 1 for what went wrong while doing it
+EXIT_CODES: dict[type[BowlrecError], int] = {
+    InputError: 2,
+    ConflictError: 2,
+    NotFoundError: 1,
+    DamagedError: 1,
+    StorageError: 1,
+    BusyError: 1,
+    UnavailableError: 1,
+}
+
+
+def exit_code(err: BowlrecError) -> int:
+    """The exit code of ``err``'s category (:data:`EXIT_CODES`; 1 for none)."""
+    return next((code for kind, code in EXIT_CODES.items() if isinstance(err, kind)), 1)
+
+
+def exit_for(err: BaseException) -> None:
+    """Exit with one ``error:`` line for a :class:`~bowlrec.errors.BowlrecError` (its
+    category's code) or an invalid spec Pydantic rejected (code 2); return for anything else.
+    Pydantic is imported only when the error is not a BowlrecError."""
+    if isinstance(err, BowlrecError):
+        fail(str(err), code=exit_code(err))
+    if not isinstance(err, ValueError):
+        return
+    from pydantic import ValidationError
+
+    if isinstance(err, ValidationError):
+        from bowlrec.spec import format_validation_error
+
+        fail(f"invalid spec\n{format_validation_error(err)}")
+
+
 def load_scene_or_exit(path: Path) -> Any:
     """The file's physical scene (a bowler scene converted); exits when invalid."""
     return parse_scene_or_exit(path).scene
@@ -51,68 +102,55 @@ def load_scene_or_exit(path: Path) -> Any:
 
 def parse_scene_or_exit(path: Path) -> Any:
     """The file's scene parsed by :func:`bowlrec.scene_input.parse_scene_file` (library
-    references are resolved by the caller); exits with the field-named message when invalid."""
-    from bowlrec.scene_input import SceneInputError, parse_scene_file
+    references are resolved by the caller); exits when the file is missing, and raises
+    :class:`~bowlrec.errors.SceneInputError` with the field-named message when it is invalid."""
+    from bowlrec.scene_input import parse_scene_file
 
     if not path.exists():
         fail(f"{path}: no such file")
-    try:
-        return parse_scene_file(path)
-    except SceneInputError as err:
-        fail(str(err))
+    return parse_scene_file(path)
 
 
 def open_archive(path: Path | None, *, create: bool = True) -> Archive:
-    """The archive at ``path`` or the configured default; exits with a clear error."""
-    from bowlrec.archive import Archive, ArchiveError, default_archive_path
+    """The archive at ``path`` or the configured default; exits with a clear error when the
+    directory cannot be opened (:class:`~bowlrec.errors.ArchiveError` when it is not an
+    archive)."""
+    from bowlrec.archive import Archive, default_archive_path
 
     if path is None:
-        try:
-            path, _source = default_archive_path()
-        except ValueError as err:
-            fail(str(err))
+        path, _source = default_archive_path()
     try:
         return Archive(path, create=create)
-    except (ArchiveError, OSError) as err:
+    except OSError as err:
         fail(str(err).removeprefix("[Errno 28] "))
 
 
 @contextmanager
 def archive_errors() -> Iterator[None]:
-    """Turn archive lookups and writes that fail (unknown run or ball, bad filter, a damaged
-    run, a full disk) into one clear line and an exit code. The error classes are imported
-    only when something failed, so a listing never loads Pydantic or NumPy for them."""
+    """Within archive reads and writes, turn what the standard library raises into one line:
+    a value the operation refused (code 2), an index or file that could not be written (code
+    1: nothing already archived was lost). Errors of the hierarchy and invalid specs pass on
+    to :func:`exit_for`."""
     try:
         yield
+    except BowlrecError:
+        raise
     except Exception as err:
-        _exit_for(err)
+        _exit_for_builtin(err)
         raise
 
 
-def _exit_for(err: Exception) -> None:
-    """Exit with one line for the errors users cause or meet; return for anything else."""
-    from bowlrec.archive.balls import BallNotFoundError
-    from bowlrec.archive.errors import RunDamagedError
-    from bowlrec.archive.store import ArchiveError, ArchiveWriteError, RunNotFoundError
-
-    if isinstance(
-        err,
-        RunNotFoundError | BallNotFoundError | RunDamagedError | ArchiveError | ArchiveWriteError,
-    ):
-        fail(str(err), code=1)
-    from pydantic import ValidationError
-
-    if isinstance(err, ValidationError):
-        from bowlrec.spec import format_validation_error
-
-        fail(f"invalid spec\n{format_validation_error(err)}")
-    if isinstance(err, ValueError):  # SamplesRequiredError, a bad filter, a bad reference
-        fail(str(err))
+def _exit_for_builtin(err: Exception) -> None:
     import sqlite3
 
-    if isinstance(err, sqlite3.Error):  # e.g. "database or disk is full"
+    if isinstance(err, ValueError):  # a value the writer refused, e.g. a plot's exaggeration
+        from pydantic import ValidationError
+
+        if not isinstance(err, ValidationError):
+            fail(str(err))
+    elif isinstance(err, sqlite3.Error):  # e.g. "database or disk is full"
         fail(f"the archive's index: {err}; nothing already archived was lost", code=1)
-    if isinstance(err, OSError):  # e.g. a full disk while removing, repairing or compacting
+    elif isinstance(err, OSError):  # e.g. a full disk while removing, repairing or compacting
         reason = os.strerror(err.errno) if err.errno else " ".join(str(err).split())
         where = f" ({err.filename})" if getattr(err, "filename", None) else ""
         fail(f"{reason}{where}; nothing already archived was lost", code=1)

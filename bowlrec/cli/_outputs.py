@@ -1,4 +1,4 @@
-"""Write a run to the requested replay formats (MCAP, rerun .rrd / live stream, plot)."""
+"""Write a run to the requested files (:mod:`bowlrec.sinks.registry`) and live viewers."""
 
 from __future__ import annotations
 
@@ -7,11 +7,20 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from ._common import fail
+from bowlrec.sinks.registry import known_suffixes, sink_for, sink_named
 
 if TYPE_CHECKING:
     from bowlrec.sinks import RunData
+    from bowlrec.sinks.registry import Sink
 
+OutOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--out",
+        help="Also write the run to this file; its suffix picks the format: "
+        f"{' '.join(known_suffixes())} (.npz: the samples as NumPy arrays).",
+    ),
+]
 McapOption = Annotated[
     Path | None, typer.Option("--mcap", help="Write the run to this .mcap file (Foxglove).")
 ]
@@ -33,49 +42,39 @@ PlotOption = Annotated[
 ]
 
 
-def wants_samples(*outputs: object) -> bool:
-    """True when any replay output was asked for (they all need a sampled trajectory)."""
-    return any(o not in (None, False) for o in outputs)
+def requested_files(
+    *,
+    out: Path | None = None,
+    mcap: Path | None = None,
+    rrd: Path | None = None,
+    plot: Path | None = None,
+) -> list[tuple[Sink, Path]]:
+    """The (sink, file) pairs asked for: ``out`` by its suffix (UnknownFormatError for one
+    no sink has), the others by their option."""
+    pairs = [(sink_for(out), out)] if out is not None else []
+    for name, path in (("mcap", mcap), ("rrd", rrd), ("plot", plot)):
+        if path is not None:
+            pairs.append((sink_named(name), path))
+    return pairs
 
 
-def _missing_extra(err: ImportError, extra: str) -> None:
-    fail(f"{err.name or err} is not installed; install it with: pip install 'bowlrec[{extra}]'")
+def wants_samples(files: list[tuple[Sink, Path]], *, stream: bool = False) -> bool:
+    """True when a requested file needs a sampled trajectory, or the run is streamed live."""
+    return stream or any(sink.needs_samples for sink, _ in files)
 
 
 def write_outputs(
     run: RunData,
+    files: list[tuple[Sink, Path]],
     *,
-    mcap: Path | None = None,
-    rrd: Path | None = None,
     connect: str | None = None,
     spawn: bool = False,
-    plot: Path | None = None,
 ) -> list[str]:
-    """Write every requested output; returns one line per output for the user."""
-    done: list[str] = []
-    if mcap is not None:
-        try:
-            from bowlrec.sinks.mcap_file import write_mcap
-        except ImportError as err:
-            _missing_extra(err, "mcap")
-        done.append(f"MCAP: {write_mcap(run, mcap)}  (open in Foxglove: File > Open)")
-    if rrd is not None or connect is not None or spawn:
-        try:
-            from bowlrec.sinks import rerun_recording as rr_sink
-        except ImportError as err:
-            _missing_extra(err, "rerun")
-        if rrd is not None:
-            done.append(f"rerun: {rr_sink.write_rrd(run, rrd)}  (open with: rerun {rrd})")
-        if connect is not None or spawn:
-            try:
-                rr_sink.stream_run(run, connect_url=connect, spawn=spawn)
-            except rr_sink.ViewerUnavailableError as err:
-                fail(str(err), code=1)
-            done.append(f"rerun: streamed to {'a new viewer' if spawn else connect}")
-    if plot is not None:
-        try:
-            from bowlrec.sinks.plot import plot_runs
-        except ImportError as err:
-            _missing_extra(err, "plot")
-        done.append(f"plot: {plot_runs([run], plot)}")
+    """Write every requested file and stream to a viewer when asked; one line per output for
+    the user."""
+    done = [sink.line(sink.write(run, path)) for sink, path in files]
+    if connect is not None or spawn:
+        stream_run = sink_named("rrd").attribute("stream_run")
+        stream_run(run, connect_url=connect, spawn=spawn)
+        done.append(f"rerun: streamed to {'a new viewer' if spawn else connect}")
     return done

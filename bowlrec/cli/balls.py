@@ -20,13 +20,16 @@ def _load_ball(path: Path) -> Any:
     """A ball from a file: a physical ball spec, a spec sheet in bowlers' units (it has
     ``weight_lb``), or the ``ball`` of a scene file (physical or bowler-language)."""
     from bowlrec.archive.balls import parse_ball
-    from bowlrec.spec.loading import SpecFileError, read_mapping
+    from bowlrec.errors import SpecFileError
+    from bowlrec.spec.loading import read_mapping
 
     if not path.exists():
         fail(f"{path}: no such file")
     try:
         data = read_mapping(path)
-    except (SpecFileError, OSError) as err:
+    except SpecFileError as err:
+        raise SpecFileError(f"{path}: {err}") from None
+    except OSError as err:
         fail(f"{path}: {err}")
     if isinstance(data, dict) and "ball" in data:
         data = data["ball"]

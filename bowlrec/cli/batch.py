@@ -93,18 +93,16 @@ def batch(
     Every run of the sweep not yet archived is simulated and added; one table row per run.
     Resumable: rerunning skips archived runs.
     """
-    from bowlrec.batch import JobError, TableWriter, load_job, run_job, table_paths
+    from bowlrec.batch import TableWriter, load_job, run_job, table_paths
     from bowlrec.batch.runner import param_columns
     from bowlrec.batch.table import param_types
+    from bowlrec.errors import BowlrecError, JobError
 
     if not job.exists():
         fail(f"{job}: no such file")
     if worker_writes not in ("auto", "yes", "no"):
         fail(f"--worker-writes: {worker_writes!r} must be auto, yes or no")
-    try:
-        spec = load_job(job)
-    except JobError as err:
-        fail(str(err))
+    spec = load_job(job)
     store = None if no_archive else open_archive(archive)
     prefix = out if out is not None else Path(f"{job.stem}-summary")
     if no_archive and spec.formats:
@@ -118,7 +116,7 @@ def batch(
     columns = param_columns(spec)
     try:
         writer = TableWriter(table_paths(prefix), columns, param_types(spec, columns))
-    except (OSError, RuntimeError) as err:
+    except OSError as err:
         fail(str(err))
     cancel = threading.Event()
     previous = _sigint_sets(cancel)
@@ -138,14 +136,12 @@ def batch(
                 worker_writes=worker_writes,
                 sink=writer.write,
             )
-    except JobError as err:
+    except BaseException as err:
         writer.abort()
-        fail(f"{job}: {err}")
-    except (RuntimeError, OSError) as err:
-        writer.abort()
-        fail(str(err))
-    except BaseException:
-        writer.abort()
+        if isinstance(err, JobError):
+            raise JobError(f"{job}: {err}") from None
+        if isinstance(err, RuntimeError | OSError) and not isinstance(err, BowlrecError):
+            fail(str(err))  # e.g. a scheduler that cannot be reached
         raise
     finally:
         signal.signal(signal.SIGINT, previous)

@@ -43,8 +43,6 @@ def demo(
     """
     from bowlrec.sinks import RunData
 
-    from ._outputs import write_outputs
-
     store = open_archive(archive)
     scenes = _scenes(record_dt_s)
     results = _simulate_all(store, scenes, quiet)
@@ -73,32 +71,30 @@ def demo(
     replay_run = RunData(
         scenes[REPLAY_CASE - 1], scenes[REPLAY_CASE - 1].resolve(), replay.trajectory, replay.run_id
     )
-    lines = []
-    if _installed("matplotlib"):
-        from bowlrec.sinks.plot import plot_runs
-
-        lines.append(f"plot: {plot_runs(fig6, out / 'fig6-cases-9-10-14-16.png')}")
-    else:
-        lines.append("plot: skipped (pip install 'bowlrec[plot]')")
-    if _installed("foxglove") and _installed("mcap"):
-        lines += write_outputs(replay_run, mcap=out / f"case{REPLAY_CASE}.mcap")
-    else:
-        lines.append("MCAP: skipped (pip install 'bowlrec[mcap]')")
-    if _installed("rerun"):
-        lines += write_outputs(replay_run, rrd=out / f"case{REPLAY_CASE}.rrd")
-    else:
-        lines.append("rerun: skipped (pip install 'bowlrec[rerun]')")
-    for line in lines:
-        typer.echo(line)
+    files = [
+        ("plot", fig6, out / "fig6-cases-9-10-14-16.png"),
+        ("mcap", [replay_run], out / f"case{REPLAY_CASE}.mcap"),
+        ("rrd", [replay_run], out / f"case{REPLAY_CASE}.rrd"),
+    ]
+    for name, runs, path in files:
+        typer.echo(_written(name, runs, path))
     typer.echo(
         f"next: bowlrec runs list   |   bowlrec replay {replay.run_id[:10]} --rrd case16.rrd"
     )
 
 
-def _installed(module: str) -> bool:
-    from importlib.util import find_spec
+def _written(name: str, runs: list[Any], path: Path) -> str:
+    """The line for ``runs`` written to ``path`` by sink ``name``, or for the sink skipped when
+    its optional libraries are not installed."""
+    from bowlrec.errors import MissingExtraError
+    from bowlrec.sinks.registry import sink_named
 
-    return find_spec(module) is not None
+    sink = sink_named(name)
+    try:
+        written = sink.write_many(runs, path) if len(runs) > 1 else sink.write(runs[0], path)
+    except MissingExtraError:
+        return f"{sink.label}: skipped (pip install 'bowlrec[{sink.extra}]')"
+    return sink.line(written)
 
 
 def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:

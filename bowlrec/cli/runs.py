@@ -25,6 +25,7 @@ from ._outputs import (
     PlotOption,
     RrdOption,
     SpawnOption,
+    requested_files,
     write_outputs,
 )
 
@@ -168,46 +169,28 @@ def export(
         typer.Option(
             "--out",
             "-o",
-            help="Destination: .h5 (the run file), .mcap, .rrd, .json (scene), .png/.svg (plot).",
+            help="Destination; its suffix picks the format: .h5/.hdf5 (the run file), .mcap, "
+            ".rrd, .npz (samples), .json (scene), .png/.svg (plot).",
         ),
     ],
     archive: ArchiveOption = None,
 ) -> None:
-    """Export a run as its HDF5 file, MCAP, rerun recording, scene JSON or figure.
+    """Export a run as its HDF5 file, MCAP, rerun recording, NumPy arrays, scene JSON or
+    figure.
 
-    Several runs go into one .mcap (each under its own topic prefix, lanes side by side).
+    Several runs go into one .mcap (each under its own topic prefix, lanes side by side) or
+    one figure (overlaid).
     """
+    from bowlrec.sinks.registry import sink_for
+
+    sink = sink_for(out)
     store = _open(archive, create=False)
-    suffix = out.suffix.lower()
-    if len(runs) > 1 and suffix != ".mcap":
-        fail(f"several runs can only be exported to one .mcap, not {suffix or 'no suffix'}")
-    run = runs[0]
     with archive_errors():
-        if len(runs) > 1:
-            try:
-                from bowlrec.sinks.mcap_file import write_mcap_batch
-            except ImportError as err:
-                fail(f"{err.name} is not installed; install it with: pip install 'bowlrec[mcap]'")
-            batch = [store.run_data(store.resolve_id(r)) for r in runs]
-            typer.echo(f"MCAP: {write_mcap_batch(batch, out)} ({len(batch)} runs)")
-        elif suffix in (".h5", ".hdf5"):
-            typer.echo(str(store.export(run, out)))
-        elif suffix == ".json":
-            stored = store.load(store.resolve_id(run))
-            out.write_text(json.dumps(json.loads(stored.attrs["scene_json"]), indent=2) + "\n")
-            typer.echo(str(out))
-        elif suffix in (".mcap", ".rrd", ".png", ".svg"):
-            data = store.run_data(store.resolve_id(run))
-            lines = write_outputs(
-                data,
-                mcap=out if suffix == ".mcap" else None,
-                rrd=out if suffix == ".rrd" else None,
-                plot=out if suffix in (".png", ".svg") else None,
-            )
-            for line in lines:
-                typer.echo(line)
+        data = [store.run_data(store.resolve_id(r)) for r in runs]
+        if len(data) > 1:
+            typer.echo(sink.line(sink.write_many(data, out), note=f"{len(data)} runs"))
         else:
-            fail(f"--out {out}: unknown suffix {suffix!r} (.h5 .mcap .rrd .json .png .svg)")
+            typer.echo(sink.line(sink.write(data[0], out)))
 
 
 @runs_app.command("rm")
@@ -296,27 +279,23 @@ def migrate(
     Run IDs stay the same. The 1.0 files are kept in ARCHIVE/v1-archive/ (delete it once the
     migrated archive looks right); a migration that was interrupted resumes when run again.
     """
-    from bowlrec.archive.migrate import MigrationError
     from bowlrec.archive.migrate import migrate as run_migration
 
     from ._common import interactive
 
-    try:
-        if interactive(quiet):
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+    if interactive(quiet):
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
-            with Progress(
-                "migrating run files", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()
-            ) as bar:
-                task = bar.add_task("migrate", total=None)
-                report = run_migration(
-                    archive,
-                    progress=lambda done, total: bar.update(task, completed=done, total=total),
-                )
-        else:
-            report = run_migration(archive)
-    except MigrationError as err:
-        fail(str(err))
+        with Progress(
+            "migrating run files", BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()
+        ) as bar:
+            task = bar.add_task("migrate", total=None)
+            report = run_migration(
+                archive,
+                progress=lambda done, total: bar.update(task, completed=done, total=total),
+            )
+    else:
+        report = run_migration(archive)
     if "already" in report:
         typer.echo(f"{archive} is already format {report['already']} ({report['runs']} runs)")
         return
@@ -357,12 +336,11 @@ def replay(
     """Replay an archived run in rerun (--rrd FILE, --connect URL or --spawn), MCAP or a plot."""
     if not any((rrd, connect, spawn, mcap, plot)):
         fail("nothing to do: give --rrd FILE, --connect URL, --spawn, --mcap FILE or --plot FILE")
+    files = requested_files(rrd=rrd, mcap=mcap, plot=plot)
     store = _open(archive, create=False)
     with archive_errors():
         data = store.run_data(store.resolve_id(run))
-        for line in write_outputs(
-            data, rrd=rrd, connect=connect, spawn=spawn, mcap=mcap, plot=plot
-        ):
+        for line in write_outputs(data, files, connect=connect, spawn=spawn):
             typer.echo(line)
 
 
@@ -385,10 +363,10 @@ def plot(
     ] = None,
 ) -> None:
     """Paper-style figure of one or several runs overlaid (lane, oil, paths, rotation axes)."""
-    try:
-        from bowlrec.sinks.plot import plot_runs, plot_series
-    except ImportError as err:
-        fail(f"{err.name} is not installed; install it with: pip install 'bowlrec[plot]'")
+    from bowlrec.sinks.registry import sink_named
+
+    plots = sink_named("plot")
+    plot_runs, plot_series = plots.attribute("plot_runs"), plots.attribute("plot_series")
     data = []
     with archive_errors():
         for item in runs:

@@ -14,7 +14,6 @@ from ._common import (
     JsonOption,
     QuietOption,
     archive_errors,
-    fail,
     load_scene_or_exit,
     open_archive,
     parse_scene_or_exit,
@@ -25,9 +24,11 @@ from ._common import (
 from ._outputs import (
     ConnectOption,
     McapOption,
+    OutOption,
     PlotOption,
     RrdOption,
     SpawnOption,
+    requested_files,
     wants_samples,
     write_outputs,
 )
@@ -48,9 +49,7 @@ def simulate(
         typer.Option("--ball", help="Use this library ball (NAME or NAME@VERSION) instead."),
     ] = None,
     as_json: JsonOption = False,
-    out: Annotated[
-        Path | None, typer.Option("--out", help="Also save the trajectory to a .npz file.")
-    ] = None,
+    out: OutOption = None,
     mcap: McapOption = None,
     rrd: RrdOption = None,
     connect: ConnectOption = None,
@@ -65,13 +64,14 @@ def simulate(
     from bowlrec.scene_input import ParsedScene
     from bowlrec.spec import Scene
 
+    files = requested_files(out=out, mcap=mcap, rrd=rrd, plot=plot)
     parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
     store = None if no_archive else open_archive(archive)
     if ball is not None:
         with archive_errors():
             parsed = _with_library_ball(parsed, ball, store or open_archive(archive))
     scene_obj, ball_ref = parsed.scene, parsed.ball_ref
-    needs_samples = wants_samples(out, mcap, rrd, connect, spawn, plot)
+    needs_samples = wants_samples(files, stream=connect is not None or spawn)
     # a bowler-language scene reports in bowlers' terms, which reads the samples
     keep_samples = needs_samples or parsed.bowler is not None
     if needs_samples and scene_obj.options.record == "summary":
@@ -101,9 +101,7 @@ def simulate(
         from bowlrec.sinks import RunData
 
         run = RunData(scene_obj, scene_obj.resolve(), traj, run_id)
-        if out is not None:
-            traj.save_npz(out)
-        lines = write_outputs(run, mcap=mcap, rrd=rrd, connect=connect, spawn=spawn, plot=plot)
+        lines = write_outputs(run, files, connect=connect, spawn=spawn)
     bowler = _bowler_report(parsed, traj)
     if as_json:
         payload = summary_json(traj.summary)
@@ -118,7 +116,7 @@ def simulate(
             payload["bowler"] = bowler
         typer.echo(json.dumps(payload))
         return
-    _print_summary(scene_obj.name, traj, out, run_id, added, store)
+    _print_summary(scene_obj.name, traj, run_id, added, store)
     if bowler is not None:
         _print_bowler(bowler)
     for line in lines:
@@ -128,14 +126,15 @@ def simulate(
 def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
     """The parsed scene with library ball ``ref`` in place of its ball: a physical ball in a
     physical scene, a spec sheet in a bowler scene (laid out by its layout and PAP)."""
-    from bowlrec.scene_input import SceneInputError, parse_scene
+    from bowlrec.errors import SceneInputError
+    from bowlrec.scene_input import parse_scene
 
     source = parsed.bowler if parsed.bowler is not None else parsed.scene
     data = source.model_dump(mode="json")  # a bowler scene keeps its "format": "bowler"
     try:
         return parse_scene({**data, "ball": ref}, store.balls)
     except SceneInputError as err:
-        fail(f"--ball {ref}: {err}")
+        raise SceneInputError(f"--ball {ref}: {err}") from None
 
 
 def _bowler_report(parsed: Any, traj: Any) -> dict[str, Any] | None:
@@ -162,7 +161,7 @@ def _print_bowler(report: dict[str, Any]) -> None:
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
     from dataclasses import replace
 
-    from bowlrec.core.plan import RECORD_SUMMARY
+    from bowlrec.core.codes import RECORD_SUMMARY
     from bowlrec.core.solver import solve
 
     plan = scene.resolve()
@@ -171,9 +170,7 @@ def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
     return solve(plan)
 
 
-def _print_summary(
-    name: str, traj: Any, out: Path | None, run_id: str | None, added: bool, store: Any
-) -> None:
+def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:
     from rich.console import Console
     from rich.table import Table
 
@@ -193,8 +190,6 @@ def _print_summary(
     if run_id is not None:
         state = "stored" if added else "already archived (reused)"
         table.add_row("run", f"{run_id} {state} in {store.root}")
-    if out is not None:
-        table.add_row("trajectory", f"{out} ({traj.n_samples} samples)")
     Console().print(table)
 
 

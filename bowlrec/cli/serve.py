@@ -16,6 +16,7 @@ from typing import Annotated
 
 import typer
 
+from bowlrec.errors import MissingExtraError
 from bowlrec.service.names import (
     DEFAULT_MAX_BODY_BYTES,
     MIN_TOKEN_LENGTH,
@@ -115,9 +116,11 @@ def serve(
 
         from bowlrec.service.app import create_app
     except ImportError as err:
-        fail(f"bowlrec serve needs the service extra: pip install 'bowlrec[service]' ({err})")
-    from bowlrec.service.jobs import JobsLockedError
-
+        raise MissingExtraError(
+            f"bowlrec serve needs {err.name or err}, which is not installed; install it with: "
+            "pip install 'bowlrec[service]'",
+            name=err.name,
+        ) from None
     allowed = list(allowed_host or [])
     for name in allowed:
         if host_name(name) is None:
@@ -125,21 +128,18 @@ def serve(
     if bound_ip(host) is not None:
         allowed.append(host.strip("[]"))  # the literal address the server is reached at
     store = open_archive(archive)
-    try:
-        if scheduler is None:
-            from bowlrec.archive.location import config_value
+    if scheduler is None:
+        from bowlrec.archive.location import config_value
 
-            scheduler = config_value("scheduler")
-        application = create_app(
-            store.root,
-            token,
-            job_workers=job_workers,
-            scheduler=scheduler,
-            max_body_bytes=max_body_bytes,
-            allowed_hosts=allowed,
-        )
-    except JobsLockedError as err:
-        fail(str(err))
+        scheduler = config_value("scheduler")
+    application = create_app(  # JobsLockedError when another server runs the archive's jobs
+        store.root,
+        token,
+        job_workers=job_workers,
+        scheduler=scheduler,
+        max_body_bytes=max_body_bytes,
+        allowed_hosts=allowed,
+    )
     try:
         sockets = bind_sockets(host, port)
     except OSError as err:

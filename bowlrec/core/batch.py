@@ -15,8 +15,8 @@ import numpy as np
 from numba import njit, prange
 
 from .closed_form import closed_form_kernel
-from .dynamics import N_STATE
-from .integrator import N_EVCOL, simulate_kernel
+from .codes import N_EVCOL, N_STATE
+from .integrator import simulate_kernel
 from .plan import Plan
 from .solver import initial_state, kernel_params, needs_orientation, use_closed_form
 from .summary import first_slide_x, released_rolling, summary_columns
@@ -63,7 +63,7 @@ def pack_plans(plans: Sequence[Plan]) -> PackedPlans:
     y_off = np.zeros(n + 1, dtype=np.int64)
     mu_off = np.zeros(n + 1, dtype=np.int64)
     par = np.empty((n, kernel_params(plans[0]).shape[0]))
-    y0 = np.empty((n, 11))
+    y0 = np.empty((n, N_STATE))
     lane = np.empty((n, 3))
     opts = np.empty((n, 5))
     flags = np.zeros((n, 2), dtype=np.bool_)

@@ -19,22 +19,25 @@ import math
 import numpy as np
 from numba import njit
 
-from .dynamics import P_G, P_K1, P_R, PHASE_ROLL, PHASE_SLIDE
-from .integrator import (
+from .codes import (
     EVENT_GUTTER,
     EVENT_PINS,
     EVENT_SLIDE_TO_ROLL,
     EVENT_STOPPED,
     EVENT_ZONE,
+    N_COL,
     N_EVCOL,
+    PHASE_ROLL,
+    PHASE_SLIDE,
     STATUS_GUTTER,
     STATUS_MAX_TIME,
     STATUS_PINS,
     STATUS_RUNNING,
     STATUS_STALLED,
     STATUS_STOPPED,
-    _push_event,
 )
+from .dynamics import P_G, P_K1, P_R
+from .recording import push_event
 
 _INF = 1e300
 
@@ -78,7 +81,7 @@ def closed_form_kernel(  # type: ignore[no-untyped-def]
     t = 0.0
     ev = np.empty((16, N_EVCOL))
     nev = 0
-    rec = np.empty((0, 16))
+    rec = np.empty((0, N_COL))
     nx = x_edges.shape[0]
     ny = y_edges.shape[0]
     ix = np.searchsorted(x_edges, y[0], side="right")
@@ -176,23 +179,23 @@ def closed_form_kernel(  # type: ignore[no-untyped-def]
                 iy -= 1
                 y[1] = ylo
             mu = mu_grid[ix, iy]
-            ev, nev = _push_event(ev, nev, t, EVENT_ZONE, y, mu, phase)
+            ev, nev = push_event(ev, nev, t, EVENT_ZONE, y, mu, phase)
         elif kind == 5:
             y[0] = lane_length
             status = STATUS_PINS
-            ev, nev = _push_event(ev, nev, t, EVENT_PINS, y, mu, phase)
+            ev, nev = push_event(ev, nev, t, EVENT_PINS, y, mu, phase)
         elif kind == 6:
             y[1] = 0.0 if y[1] < 0.5 * lane_width else lane_width
             status = STATUS_GUTTER
-            ev, nev = _push_event(ev, nev, t, EVENT_GUTTER, y, mu, phase)
+            ev, nev = push_event(ev, nev, t, EVENT_GUTTER, y, mu, phase)
         elif kind == 7:
             y[2] = 0.0
             status = STATUS_STOPPED
-            ev, nev = _push_event(ev, nev, t, EVENT_STOPPED, y, mu, phase)
+            ev, nev = push_event(ev, nev, t, EVENT_STOPPED, y, mu, phase)
         else:
             # slip exactly zero: rolling from here on
             y[2] = R * y[9]
             y[3] = -R * y[8]
             phase = PHASE_ROLL
-            ev, nev = _push_event(ev, nev, t, EVENT_SLIDE_TO_ROLL, y, mu, phase)
+            ev, nev = push_event(ev, nev, t, EVENT_SLIDE_TO_ROLL, y, mu, phase)
     return rec, 0, ev, nev, status, t, y, nseg, 0

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .dynamics import PHASE_ROLL, PHASE_SLIDE, energy_per_mass, roll_accel, slide_accel, slip
-from .integrator import COL_MU, COL_PHASE, COL_STATE, COL_UX, COL_UY
+from .codes import COL_MU, COL_PHASE, COL_STATE, COL_UX, COL_UY, N_STATE, PHASE_ROLL, PHASE_SLIDE
+from .dynamics import energy_per_mass, roll_accel, slide_accel, slip
 from .terms import equation_terms, matvec
 
 
@@ -29,9 +29,9 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
     m_terms = 6 if record_terms else 0
     inertia_alpha = np.zeros((n if record_terms else 0, m_terms, 3))
     torques = np.zeros((n if record_terms else 0, m_terms, 3))
-    y = np.empty(11)
+    y = np.empty(N_STATE)
     for k in range(n):
-        for i in range(11):
+        for i in range(N_STATE):
             y[i] = rec[k, COL_STATE + i]
         phase = PHASE_ROLL if rec[k, COL_PHASE] == PHASE_ROLL else PHASE_SLIDE
         mu = rec[k, COL_MU]

@@ -39,14 +39,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .codes import PHASE_LAYER, PHASE_ROLL
 from .vec import NO_NRT, cross, quat_matrix, rotate, solve3, world_inertia
-
-N_STATE = 11
-PHASE_SLIDE = 0
-PHASE_ROLL = 1
-#: sliding right after the slip restarted from zero: the friction acts along the slaved direction
-#: (the direction along which the slip grows along itself) until the slip is established
-PHASE_LAYER = 2
 
 (P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET, P_SLAYER, P_QWEIGHT) = range(
     12

@@ -22,14 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-# Recording modes (``Plan.record_mode``).
-RECORD_SUMMARY = 0  #: keep no samples, only events and the summary
-RECORD_STEPS = 1  #: one sample at every accepted integrator step (and every event)
-RECORD_RATE = 2  #: samples at a fixed rate from the dense output (and every event)
-
-# Slide-to-roll criteria (``Plan.slide_to_roll``).
-SLIDE_TO_ROLL_EXACT = 0  #: rolling starts where the slip is exactly zero (root of the slip)
-SLIDE_TO_ROLL_THRESHOLD = 1  #: the paper's rule: rolling starts once |slip| < slip_threshold
+from .codes import RECORD_STEPS, SLIDE_TO_ROLL_EXACT
 
 
 @dataclass(frozen=True)

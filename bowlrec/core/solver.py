@@ -8,24 +8,46 @@ from typing import Any
 import numpy as np
 
 from .closed_form import closed_form_kernel
+from .codes import (
+    COL_MU,
+    COL_PHASE,
+    COL_STATE,
+    COL_T,
+    EV_KIND,
+    EV_MU,
+    EV_PHASE,
+    EV_T,
+    EV_X,
+    EV_Y,
+    EVENT_KINDS,
+    N_STATE,
+    PHASE_NAMES,
+    PHASE_ROLL,
+    RECORD_SUMMARY,
+    S_QW,
+    S_VX,
+    S_WX,
+    S_X,
+    SLIDE_TO_ROLL_EXACT,
+)
 from .derive import derive_samples
-from .dynamics import N_STATE, PHASE_ROLL, pack_params
-from .integrator import COL_MU, COL_PHASE, COL_STATE, COL_T, simulate_kernel
-from .plan import RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT, Plan
+from .dynamics import pack_params
+from .integrator import simulate_kernel
+from .plan import Plan
 from .summary import first_slide_x, summary_columns, summary_message
 from .summary import released_rolling as rolling_at_release
 from .terms import INERTIA_TERMS, TORQUE_TERMS
-from .trajectory import EVENT_KINDS, Event, Summary, Trajectory
+from .trajectory import Event, Summary, Trajectory
 
 
 def initial_state(plan: Plan) -> np.ndarray:
     """The 11-component state vector at release (see ``bowlrec.core.dynamics``)."""
     y = np.empty(N_STATE)
-    y[0:2] = plan.position0_m
-    y[2:4] = plan.velocity0_mps
+    y[S_X : S_X + 2] = plan.position0_m
+    y[S_VX : S_VX + 2] = plan.velocity0_mps
     q = np.asarray(plan.q0, dtype=np.float64)
-    y[4:8] = q / np.linalg.norm(q)
-    y[8:11] = plan.omega0_radps
+    y[S_QW : S_QW + 4] = q / np.linalg.norm(q)
+    y[S_WX : S_WX + 3] = plan.omega0_radps
     return y
 
 
@@ -154,12 +176,12 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
     mass = plan.mass_kg
     events = [
         Event(
-            t_s=float(row[0]),
-            kind=EVENT_KINDS[int(row[1])],
-            x_m=float(row[2]),
-            y_m=float(row[3]),
-            mu=float(row[4]),
-            phase="rolling" if row[5] == 1.0 else "sliding",
+            t_s=float(row[EV_T]),
+            kind=EVENT_KINDS[int(row[EV_KIND])],
+            x_m=float(row[EV_X]),
+            y_m=float(row[EV_Y]),
+            mu=float(row[EV_MU]),
+            phase=PHASE_NAMES[int(row[EV_PHASE])],
         )
         for row in ev
     ]
@@ -169,9 +191,9 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
     )
     n = rec.shape[0]
     position = np.zeros((n, 3))
-    position[:, :2] = rec[:, COL_STATE : COL_STATE + 2]
+    position[:, :2] = rec[:, COL_STATE + S_X : COL_STATE + S_X + 2]
     velocity = np.zeros((n, 3))
-    velocity[:, :2] = rec[:, COL_STATE + 2 : COL_STATE + 4]
+    velocity[:, :2] = rec[:, COL_STATE + S_VX : COL_STATE + S_VX + 2]
     slip3 = np.zeros((n, 3))
     slip3[:, :2] = slips
     fric3 = np.zeros((n, 3))
@@ -186,8 +208,8 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
         t_s=rec[:, COL_T].copy(),
         position_m=position,
         velocity_mps=velocity,
-        quaternion_wxyz=rec[:, COL_STATE + 4 : COL_STATE + 8].copy(),
-        omega_radps=rec[:, COL_STATE + 8 : COL_STATE + 11].copy(),
+        quaternion_wxyz=rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4].copy(),
+        omega_radps=rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3].copy(),
         phase=(rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
         mu=rec[:, COL_MU].copy(),
         normal_force_N=normal * mass,

@@ -21,9 +21,9 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
+from .codes import EV_KIND, EV_X, EVENT_SLIDE_TO_ROLL, OUTCOMES, STATUS_AIRBORNE, STATUS_PINS
 from .dynamics import roll_accel, slip
-from .integrator import EVENT_SLIDE_TO_ROLL, STATUS_AIRBORNE, STATUS_PINS
-from .trajectory import FLOAT_METRICS, INT_METRICS, OUTCOMES
+from .trajectory import FLOAT_METRICS, INT_METRICS
 
 __all__ = [
     "FLOAT_METRICS",
@@ -40,8 +40,8 @@ def first_slide_x(ev, nev):  # type: ignore[no-untyped-def]
     """x (m) of the first slide -> roll event among the first ``nev`` rows of the event table
     (NaN when there is none)."""
     for k in range(nev):
-        if ev[k, 1] == EVENT_SLIDE_TO_ROLL:
-            return ev[k, 2]
+        if ev[k, EV_KIND] == EVENT_SLIDE_TO_ROLL:
+            return ev[k, EV_X]
     return math.nan
 
 
@@ -70,8 +70,9 @@ def summary_columns(
     n_rhs: NDArray[Any],
     n_events: NDArray[Any],
 ) -> dict[str, NDArray[Any]]:
-    """Metric columns of n runs from their final states ``y_end`` (n, 11), initial states
-    ``y0`` (n, 11), first slide -> roll x ``slide_x`` (NaN: none) and release-rolling flags.
+    """Metric columns of n runs from their final states ``y_end`` (n, N_STATE), initial
+    states ``y0`` (n, N_STATE), first slide -> roll x ``slide_x`` (NaN: none) and
+    release-rolling flags.
 
     Returns ``outcome`` (str array), :data:`FLOAT_METRICS` (float64, NaN for no value) and
     :data:`INT_METRICS` (int64)."""

@@ -24,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .dynamics import P_G, P_K1, P_K2, P_K3, P_R, P_RDX, P_RDY, P_RDZ, PHASE_ROLL
+from .codes import PHASE_ROLL
+from .dynamics import P_G, P_K1, P_K2, P_K3, P_R, P_RDX, P_RDY, P_RDZ
 from .vec import quat_matrix, solve3
 
 INERTIA_TERMS = ("I_o", "I_dev", "I_Delta_s", "I_DeltaDelta_s", "I_Roll", "I_Delta_r")

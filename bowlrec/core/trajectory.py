@@ -2,23 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-
-OUTCOMES = {
-    1: "pins",
-    2: "gutter",
-    3: "stopped",
-    4: "airborne",
-    5: "max_time",
-    6: "max_steps",
-    7: "stalled",
-}
 
 #: the Summary's float metrics, as columns of many runs (NaN: no value)
 FLOAT_METRICS = (
@@ -33,18 +21,6 @@ FLOAT_METRICS = (
 )
 #: the Summary's integer metrics
 INT_METRICS = ("n_steps", "n_rhs", "n_events")
-
-EVENT_KINDS = {
-    1: "slide_to_roll",
-    2: "roll_to_slide",
-    3: "zone",
-    4: "pins",
-    5: "gutter",
-    6: "stopped",
-    7: "airborne",
-    8: "max_time",
-    9: "slip_reversal",
-}
 
 
 @dataclass(frozen=True)
@@ -125,10 +101,6 @@ class Trajectory:
     def speed_mps(self) -> NDArray[np.float64]:
         return np.asarray(np.linalg.norm(self.velocity_mps, axis=1))
 
-    @property
-    def rev_rate_rpm(self) -> NDArray[np.float64]:
-        return np.asarray(np.linalg.norm(self.omega_radps, axis=1) * 60.0 / (2.0 * math.pi))
-
     def arrays(self) -> dict[str, NDArray[Any]]:
         """All per-sample arrays by name (torques as ``torque_<term>``)."""
         out: dict[str, NDArray[Any]] = {
@@ -148,17 +120,6 @@ class Trajectory:
         for name, arr in self.torques_Nm.items():
             out[f"torque_{name}"] = arr
         return out
-
-    def save_npz(self, path: str | Path) -> Path:
-        """Save samples, events and summary to a compressed ``.npz`` (events/summary as JSON)."""
-        import json
-
-        path = Path(path)
-        events = json.dumps([asdict(e) for e in self.events])
-        summary = json.dumps(self.summary.to_dict())
-        arrays: dict[str, Any] = {"events_json": events, "summary_json": summary, **self.arrays()}
-        np.savez_compressed(path, **arrays)
-        return path
 
 
 def summary_trajectory(events: list[Event], summary: Summary) -> Trajectory:

@@ -1,22 +1,25 @@
 """The FastAPI application: scenes, runs and their files, the ball library and jobs.
 
-Errors the service raises itself are ``{"detail": "<message>"}``, one line unless noted: 400 (a
+Errors are ``{"detail": "<message>"}``, one line unless noted. An error of
+:mod:`bowlrec.errors` is answered in one handler with the status of its category
+(:data:`STATUS_CODES`): 422 for an InputError (an invalid scene, ball or job spec -- one
+``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
+-- a bad run filter or ball reference), 404 for a NotFoundError (unknown run, ball or job), 409
+for a ConflictError (replay of a summary-only run, a job not cancellable or resumable, a job
+whose record is damaged) and a DamagedError (a stored run found damaged: the message names the
+run and its segment; `bowlrec runs repair` quarantines it), 503 with ``Retry-After`` for a
+BusyError (every recording slot is busy and enough recorded runs wait), 507 for a StorageError
+(the archive could not be written, e.g. a full disk; nothing stored was lost), 501 for an
+UnavailableError (an optional format library is not installed). The HTTP layer adds 400 (a
 ``Host`` that is not allowed -- DNS-rebinding protection; the message says how to allow it),
-401 (missing or wrong bearer token, and no valid session cookie), 403 (a state-changing
-request from another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's), 404 (unknown
-run, ball or job), 409 (the request conflicts with the state: replay of a summary-only run, a
-stored run found damaged -- the message names the run and its segment; `bowlrec runs repair`
-quarantines it --, job not cancellable/resumable, a job whose record is damaged), 413 (the
-request body exceeds the limit, ``serve --max-body-mb``), 507 (the archive could not be
-written, e.g. a full disk; nothing stored was lost), 422 (an invalid scene, ball or job spec --
-one ``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes
-them -- or a bad run filter), 501 (an optional format library is not installed). Messages
-never name a server path (the archive's root reads ``ARCHIVE``, other paths ``<path>``), and
-control characters in them are escaped. Malformed requests (a body that is not a JSON
-object, a query parameter of the wrong type) are 422 with the same lines: ``request body: not
-valid JSON (...)``, ``query parameter limit: ...``; a body nested too deeply to parse is 400
-(``There was an error parsing the body``). 503 (every recording slot is busy and enough
-recorded runs wait: retry). Bad input is never 5xx other than 503.
+401 (missing or wrong bearer token, and no valid session cookie), 403 (a state-changing request
+from another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's) and 413 (the request
+body exceeds the limit, ``serve --max-body-mb``). Messages never name a server path (the
+archive's root reads ``ARCHIVE``, other paths ``<path>``), and control characters in them are
+escaped. Malformed requests (a body that is not a JSON object, a query parameter of the wrong
+type) are 422 with the same lines: ``request body: not valid JSON (...)``, ``query parameter
+limit: ...``; a body nested too deeply to parse is 400 (``There was an error parsing the
+body``). Bad input is never 5xx other than 503.
 
 Requests carrying the bearer token skip the Host and Origin checks; a browser authenticates
 with a cookie session (``POST /session``). See :mod:`bowlrec.service.security` and
@@ -30,7 +33,7 @@ import logging
 import math
 import os
 import threading
-from collections.abc import AsyncIterator, Callable, Iterable
+from collections.abc import AsyncIterator, Iterable
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -42,17 +45,23 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from bowlrec.archive import (
-    Archive,
-    ArchiveWriteError,
-    BallNotFoundError,
-    RunDamagedError,
-    RunNotFoundError,
+from bowlrec.archive import Archive
+from bowlrec.errors import (
+    BallRefError,
+    BowlrecError,
+    BusyError,
+    ConflictError,
+    DamagedError,
+    InputError,
+    NotFoundError,
+    SamplesRequiredError,
+    StorageError,
+    UnavailableError,
 )
-from bowlrec.archive.index import IndexError_
+from bowlrec.sinks.registry import sink_named
 
 from .body_limit import DEFAULT_MAX_BODY_BYTES, BodyLimitMiddleware
-from .jobs import JobConflictError, JobManager, JobNotFoundError
+from .jobs import JobManager
 from .models import (
     BallAddRequest,
     BallAddResponse,
@@ -66,7 +75,6 @@ from .models import (
     SessionClosed,
     SessionInfo,
     SessionRequest,
-    SpecError,
     SubmitResponse,
     parse_ball_spec,
     parse_scene_spec,
@@ -81,22 +89,35 @@ from .security import (
     bearer_matches,
     token_matches,
 )
-from .slots import RecordingSlots, ServerBusyError
+from .slots import RecordingSlots
 
 __all__ = ["create_app"]
 
 log = logging.getLogger("bowlrec.service")
 
-#: file kinds of ``GET /runs/{id}/files/{kind}``: (suffix, media type)
-FILE_KINDS: dict[str, tuple[str, str]] = {
-    "hdf5": (".h5", "application/x-hdf5"),
-    "mcap": (".mcap", "application/octet-stream"),
-    "rrd": (".rrd", "application/octet-stream"),
+#: file kinds of ``GET /runs/{id}/files/{kind}``: sinks of :mod:`bowlrec.sinks.registry` by
+#: name, each with its media type
+FILE_KINDS: dict[str, str] = {
+    "hdf5": "application/x-hdf5",
+    "mcap": "application/octet-stream",
+    "rrd": "application/octet-stream",
 }
 FileKind = Literal["hdf5", "mcap", "rrd"]
 
+#: the HTTP status of each category of :class:`~bowlrec.errors.BowlrecError` (the first
+#: category an error belongs to); a BowlrecError of none is 500
+STATUS_CODES: dict[type[BowlrecError], int] = {
+    InputError: 422,
+    NotFoundError: 404,
+    ConflictError: 409,
+    DamagedError: 409,
+    BusyError: 503,
+    StorageError: 507,
+    UnavailableError: 501,
+}
+
 _ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorResponse} for code in (400, 401, 403, 404, 409, 413, 422, 501, 507)
+    code: {"model": ErrorResponse} for code in sorted({400, 401, 403, 413, *STATUS_CODES.values()})
 }
 
 SCENE_EXAMPLE = {
@@ -205,8 +226,9 @@ def _check_token(
 StateDep = Annotated[_State, Depends(_state)]
 
 
-def _bad(status: int, message: str) -> HTTPException:
-    return HTTPException(status, message)
+def status_for(err: BowlrecError) -> int:
+    """The HTTP status of ``err``'s category (:data:`STATUS_CODES`; 500 for none)."""
+    return next((code for kind, code in STATUS_CODES.items() if isinstance(err, kind)), 500)
 
 
 # -- runs ----------------------------------------------------------------------------------------
@@ -226,17 +248,12 @@ def submit_scene(
     library reference ``"name"`` or ``"name@version"``. The response comes once the run is
     sealed and indexed; summary-only runs of concurrent requests are sealed together in one
     segment (group commit)."""
-    try:
-        parsed = parse_scene_spec(scene, state.archive.balls)
-        recorded = parsed.scene.options.record != "summary"
-        with state.recordings.slot() if recorded else contextlib.nullcontext():
-            result = state.archive.simulate(
-                parsed.scene, ball_ref=parsed.ball_ref, group=state.commits
-            )
-    except (SpecError, ValueError) as err:  # ValueError: a scene that cannot be resolved
-        raise _bad(422, str(err)) from None
+    parsed = parse_scene_spec(scene, state.archive.balls)
+    recorded = parsed.scene.options.record != "summary"
+    with state.recordings.slot() if recorded else contextlib.nullcontext():
+        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref, group=state.commits)
     if result.trajectory is None:  # pragma: no cover - simulate always returns it
-        raise _bad(500, "the archive returned no trajectory")
+        raise HTTPException(500, "the archive returned no trajectory")
     if not result.added:
         response.status_code = 200
     return SubmitResponse(
@@ -265,69 +282,46 @@ def list_runs(
     limit: Annotated[int | None, Query(ge=0, description="At most this many rows.")] = None,
 ) -> RunList:
     """Index rows of the matching runs (reads only the index)."""
-    try:
-        rows = state.archive.list_runs(
-            ball=ball,
-            pattern=pattern,
-            outcome=outcome,
-            name=name,
-            where=where or (),
-            order_by=order_by,
-            limit=limit,
-        )
-    except (IndexError_, ValueError) as err:
-        raise _bad(422, str(err)) from None
+    rows = state.archive.list_runs(
+        ball=ball,
+        pattern=pattern,
+        outcome=outcome,
+        name=name,
+        where=where or (),
+        order_by=order_by,
+        limit=limit,
+    )
     return RunList(count=len(rows), runs=[RunRow(**r) for r in rows])
-
-
-def _resolve(state: _State, run_id: str) -> str:
-    try:
-        return state.archive.resolve_id(run_id)
-    except RunNotFoundError as err:
-        raise _bad(404, str(err)) from None
 
 
 @runs.get("/{run_id}", response_model=RunRow)
 def get_run(state: StateDep, run_id: str) -> RunRow:
     """The run's index row (summary metrics, ball, pattern, provenance); ``run_id`` may be a
     unique prefix of 4+ characters."""
-    return RunRow(**state.archive.row(_resolve(state, run_id)))
+    return RunRow(**state.archive.row(state.archive.resolve_id(run_id)))
 
 
 @runs.get("/{run_id}/spec", response_model=dict[str, Any])
 def get_spec(state: StateDep, run_id: str) -> dict[str, Any]:
     """The scene as archived (physical scene JSON; POSTing it back gives the same run ID)."""
-    rid = _resolve(state, run_id)
+    rid = state.archive.resolve_id(run_id)
     spec: dict[str, Any] = state.archive.load(rid).scene.model_dump(mode="json")
     return spec
 
 
 def _cached_file(state: _State, rid: str, kind: str) -> Path:
-    """The run's one-run HDF5 file, MCAP or RRD, generated once into ``ARCHIVE/cache/<kind>/``
-    from the run's checked bytes (the writers rename a complete file into place, so readers
-    never see a partial one)."""
-    from bowlrec.sinks.common import SamplesRequiredError
-
-    suffix = FILE_KINDS[kind][0]
-    path = state.cache_dir / kind / rid[:2] / f"{rid}{suffix}"
+    """The run written by sink ``kind`` (a one-run HDF5 file, an MCAP or an RRD), generated
+    once into ``ARCHIVE/cache/<kind>/`` from the run's checked bytes (the writers rename a
+    complete file into place, so readers never see a partial one)."""
+    sink = sink_named(kind)
+    path = state.cache_dir / kind / rid[:2] / f"{rid}{sink.suffix}"
     with state.file_lock(path):
         if path.exists():
             return path
-        if kind == "hdf5":
-            return state.archive.export(rid, path)
-        run = state.archive.run_data(rid)
         try:
-            if kind == "mcap":
-                from bowlrec.sinks.mcap_file import write_mcap
-
-                write_mcap(run, path)
-            else:
-                from bowlrec.sinks.rerun_recording import write_rrd
-
-                write_rrd(run, path)
+            return sink.write(state.archive.run_data(rid), path)
         except SamplesRequiredError as err:
-            raise _bad(409, f"run {rid} cannot be replayed: {err}") from None
-    return path
+            raise SamplesRequiredError(f"run {rid} cannot be replayed: {err}") from None
 
 
 @runs.get(
@@ -339,15 +333,10 @@ def get_file(state: StateDep, run_id: str, kind: FileKind) -> FileResponse:
     """The run as a self-contained one-run HDF5 file (``hdf5``, format ``bowlrec-run``), or
     its replay as MCAP (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first
     request and cached in the archive. 409 for a summary-only run (no samples to replay) or a
-    run found damaged."""
-    rid = _resolve(state, run_id)
-    try:
-        path = _cached_file(state, rid, kind)
-    except ImportError as err:
-        extra = "mcap" if kind == "mcap" else "rerun"
-        raise _bad(501, f"{kind} export needs bowlrec[{extra}] on the server: {err}") from None
-    suffix, media = FILE_KINDS[kind]
-    return FileResponse(path, media_type=media, filename=f"{rid}{suffix}")
+    run found damaged, 501 when the format's optional libraries are not installed."""
+    rid = state.archive.resolve_id(run_id)
+    path = _cached_file(state, rid, kind)
+    return FileResponse(path, media_type=FILE_KINDS[kind], filename=path.name)
 
 
 # -- balls ---------------------------------------------------------------------------------------
@@ -380,38 +369,21 @@ def export_balls(state: StateDep) -> dict[str, Any]:
 @balls.post("/import", response_model=list[BallAddResponse])
 def import_balls(state: StateDep, document: Annotated[dict[str, Any], Body()]) -> Any:
     """Add every spec of an exported library document (specs already present are skipped)."""
-    from pydantic import ValidationError
-
-    from bowlrec.spec import format_validation_error
-
-    try:
-        pairs = state.archive.balls.import_json(document)
-    except ValidationError as err:
-        raise _bad(422, format_validation_error(err)) from None
-    except (ValueError, KeyError, TypeError) as err:
-        raise _bad(422, f"not a ball library document: {err}") from None
+    pairs = state.archive.balls.import_json(document)
     return [BallAddResponse(added=added, entry=_entry(e)) for e, added in pairs]
 
 
 @balls.get("/{ref}", response_model=BallEntryModel)
 def get_ball(state: StateDep, ref: str) -> BallEntryModel:
     """One entry: ``name`` (latest version) or ``name@version``."""
-    try:
-        return _entry(state.archive.balls.get(ref))
-    except BallNotFoundError as err:
-        raise _bad(404, str(err)) from None
-    except ValueError as err:
-        raise _bad(422, str(err)) from None
+    return _entry(state.archive.balls.get(ref))
 
 
 @balls.post("", response_model=BallAddResponse, status_code=201)
 def add_ball(state: StateDep, body: BallAddRequest, response: Response) -> BallAddResponse:
     """Store a spec under a name: 201 with a new version, or 200 with ``added: false`` when the
     latest version has this exact spec."""
-    try:
-        entry, added = state.archive.balls.add(body.name, parse_ball_spec(body.spec), body.note)
-    except ValueError as err:  # SpecError or a bad name
-        raise _bad(422, str(err)) from None
+    entry, added = state.archive.balls.add(body.name, parse_ball_spec(body.spec), body.note)
     if not added:
         response.status_code = 200
     return BallAddResponse(added=added, entry=_entry(entry))
@@ -422,31 +394,16 @@ def remove_ball(state: StateDep, ref: str) -> BallRemoved:
     """Delete one version, ``name@version`` (runs that used it keep their copy of the spec)."""
     from bowlrec.archive import parse_ball_ref
 
-    try:
-        name, version = parse_ball_ref(ref)
-    except ValueError as err:
-        raise _bad(422, str(err)) from None
+    name, version = parse_ball_ref(ref)
     if version is None:
-        raise _bad(422, f"give the version to delete: {ref}@VERSION")
-    try:
-        state.archive.balls.remove(name, version)
-    except BallNotFoundError as err:
-        raise _bad(404, str(err)) from None
+        raise BallRefError(f"give the version to delete: {ref}@VERSION")
+    state.archive.balls.remove(name, version)
     return BallRemoved(removed=f"{name}@{version}")
 
 
 # -- jobs ----------------------------------------------------------------------------------------
 
 jobs = APIRouter(prefix="/jobs", tags=["jobs"], responses=_ERRORS)
-
-
-def _job_call(fn: Callable[[str], JobStatus], job_id: str) -> JobStatus:
-    try:
-        return fn(job_id)
-    except JobNotFoundError as err:
-        raise _bad(404, str(err)) from None
-    except JobConflictError as err:
-        raise _bad(409, str(err)) from None
 
 
 @jobs.post("", response_model=JobStatus, status_code=202)
@@ -457,10 +414,7 @@ def submit_job(
     ``schemas/job.schema.json``) or ``{"name": ..., "scenes": [...]}`` (explicit scenes, each
     keeping its own options); poll ``GET /jobs/{job_id}``. A job invalid as a whole gets 422; a
     run invalid only in combination becomes a failure row. Scenes must be inline."""
-    try:
-        return state.jobs.submit(job)
-    except SpecError as err:
-        raise _bad(422, str(err)) from None
+    return state.jobs.submit(job)
 
 
 @jobs.get("", response_model=list[JobStatus])
@@ -472,19 +426,19 @@ def list_jobs(state: StateDep) -> list[JobStatus]:
 @jobs.get("/{job_id}", response_model=JobStatus)
 def get_job(state: StateDep, job_id: str) -> JobStatus:
     """Status and progress (done/failed/skipped of total), failures and the run IDs."""
-    return _job_call(state.jobs.get, job_id)
+    return state.jobs.get(job_id)
 
 
 @jobs.post("/{job_id}/cancel", response_model=JobStatus, status_code=202)
 def cancel_job(state: StateDep, job_id: str) -> JobStatus:
     """Stop a queued or running job after the scene in progress (finished runs stay)."""
-    return _job_call(state.jobs.cancel, job_id)
+    return state.jobs.cancel(job_id)
 
 
 @jobs.post("/{job_id}/resume", response_model=JobStatus, status_code=202)
 def resume_job(state: StateDep, job_id: str) -> JobStatus:
     """Queue an interrupted, cancelled or failed job again; archived runs are skipped."""
-    return _job_call(state.jobs.resume, job_id)
+    return state.jobs.resume(job_id)
 
 
 # -- cookie sessions -----------------------------------------------------------------------------
@@ -671,21 +625,14 @@ def create_app(
         # which JSON cannot carry)
         return JSONResponse({"detail": state.redact(request_error_text(err))}, status_code=422)
 
-    @app.exception_handler(ServerBusyError)
-    async def _busy(request: Request, err: ServerBusyError) -> JSONResponse:
-        return JSONResponse({"detail": str(err)}, status_code=503, headers={"Retry-After": "1"})
-
-    @app.exception_handler(SpecError)
-    async def _spec_error(request: Request, err: SpecError) -> JSONResponse:
-        return JSONResponse({"detail": state.redact(str(err))}, status_code=422)
-
-    @app.exception_handler(RunDamagedError)
-    async def _damaged(request: Request, err: RunDamagedError) -> JSONResponse:
-        return JSONResponse({"detail": state.redact(str(err))}, status_code=409)
-
-    @app.exception_handler(ArchiveWriteError)
-    async def _unwritable(request: Request, err: ArchiveWriteError) -> JSONResponse:
-        return JSONResponse({"detail": state.redact(str(err))}, status_code=507)
+    @app.exception_handler(BowlrecError)
+    async def _bowlrec_error(request: Request, err: BowlrecError) -> JSONResponse:
+        # the one place an error of the hierarchy becomes a status: its category's
+        status = status_for(err)
+        if status == 500:  # pragma: no cover - every error bowlrec raises has a category
+            raise err  # answered as an internal error, and logged
+        headers = {"Retry-After": "1"} if isinstance(err, BusyError) else None
+        return JSONResponse({"detail": state.redact(str(err))}, status_code=status, headers=headers)
 
     @app.exception_handler(Exception)
     async def _internal(request: Request, err: Exception) -> JSONResponse:

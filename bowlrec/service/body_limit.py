@@ -22,7 +22,8 @@ __all__ = ["DEFAULT_MAX_BODY_BYTES", "BodyLimitMiddleware", "BodyTooLargeError"]
 
 class BodyTooLargeError(HTTPException):
     """Raised by ``receive`` once the body passed the limit (FastAPI lets HTTPException
-    through its body parsing; the middleware answers 413 whatever happens next)."""
+    through its body parsing; the middleware answers 413 whatever happens next). An HTTP-level
+    signal that never leaves the middleware, so not a :class:`~bowlrec.errors.BowlrecError`."""
 
 
 def too_large_detail(limit: int) -> str:

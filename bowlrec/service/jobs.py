@@ -44,15 +44,23 @@ from typing import IO, TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from bowlrec.archive import Archive, ArchiveWriteError
+from bowlrec.archive import Archive
 from bowlrec.archive.run_id import RUN_ID_LENGTH
+from bowlrec.atomic_files import atomic_path, remove_stale_parts
 from bowlrec.batch.job import MAX_JOB_RUNS
-from bowlrec.sinks.atomic import atomic_path, remove_stale_parts
+from bowlrec.errors import (
+    ArchiveWriteError,
+    DamagedError,
+    JobConflictError,
+    JobNotFoundError,
+    JobsLockedError,
+    SpecError,
+)
 
 if TYPE_CHECKING:
     from bowlrec.batch import ChunkTable, JobSpec
 
-from .models import JobFailure, JobStatus, JobStatusName, SpecError, StoredJobStatus
+from .models import JobFailure, JobStatus, JobStatusName, StoredJobStatus
 from .redact import Redactor
 
 __all__ = ["JobConflictError", "JobManager", "JobNotFoundError", "JobsLockedError", "parse_job"]
@@ -65,22 +73,7 @@ FINAL: frozenset[str] = frozenset({"done", "failed", "interrupted", "cancelled"}
 PERSIST_INTERVAL_S = 0.5
 
 
-class JobNotFoundError(KeyError):
-    """No job with that ID."""
-
-    def __str__(self) -> str:
-        return str(self.args[0])
-
-
-class JobConflictError(RuntimeError):
-    """The job is not in a state that allows the request (HTTP 409)."""
-
-
-class JobsLockedError(RuntimeError):
-    """Another live server runs this archive's jobs."""
-
-
-class _DamagedRecord(Exception):
+class _DamagedRecord(DamagedError):
     """A job's files cannot be used: the reason, and the status to list it with."""
 
     def __init__(self, reason: str, status: JobStatus) -> None:
@@ -413,16 +406,14 @@ class JobManager:
     # -- requests ------------------------------------------------------------------------------
 
     def submit(self, body: Any) -> JobStatus:
-        """Check a job as a whole (:class:`SpecError` when it is invalid; an invalid
-        combination becomes a failure row when it runs), persist it and queue it."""
-        from bowlrec.batch import JobError, job_context
+        """Check a job as a whole (:class:`~bowlrec.errors.SpecError` when it is invalid: a
+        :class:`~bowlrec.errors.JobError` for a job wrong as a whole; an invalid combination
+        becomes a failure row when it runs), persist it and queue it."""
+        from bowlrec.batch import job_context
         from bowlrec.batch.job import freeze_balls
 
         job = parse_job(body)
-        try:
-            job = freeze_balls(job, job_context(job, balls=self.archive.balls))
-        except JobError as err:
-            raise SpecError(str(err)) from None
+        job = freeze_balls(job, job_context(job, balls=self.archive.balls))
         total = job.count()  # at most MAX_JOB_RUNS: JobSpec checks it
         now = _now()
         rec = JobRecord(

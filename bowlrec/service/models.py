@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from bowlrec.core.trajectory import Summary
+from bowlrec.errors import SpecError
 from bowlrec.scene_input import ParsedScene
 
 if TYPE_CHECKING:
@@ -217,22 +218,14 @@ class JobStatus(BaseModel):
 # -- spec validation ------------------------------------------------------------------------------
 
 
-class SpecError(ValueError):
-    """An invalid scene or ball spec; the message names the offending fields (HTTP 422)."""
-
-
 def parse_scene_spec(data: Any, balls: BallLibrary | None = None) -> ParsedScene:
     """Validate a physical scene or, with ``"format": "bowler"``, a bowler-language scene
     (:func:`bowlrec.scene_input.parse_scene`: a string ``ball`` is a library reference
-    resolved through ``balls``). Raises :class:`SpecError` with field-named lines."""
-    from bowlrec.scene_input import SceneInputError, parse_scene
+    resolved through ``balls``). Raises :class:`~bowlrec.errors.SceneInputError` (a
+    :class:`~bowlrec.errors.SpecError`) with field-named lines."""
+    from bowlrec.scene_input import parse_scene
 
-    if balls is None and isinstance(data, dict) and isinstance(data.get("ball"), str):
-        raise SpecError("ball: library references are not available here")
-    try:
-        return parse_scene(data, balls)
-    except SceneInputError as err:
-        raise SpecError(str(err)) from None
+    return parse_scene(data, balls)
 
 
 def parse_ball_spec(data: Any) -> Any:

@@ -7,11 +7,9 @@ import contextlib
 import threading
 from collections.abc import Iterator
 
+from bowlrec.errors import ServerBusyError
+
 __all__ = ["RecordingSlots", "ServerBusyError"]
-
-
-class ServerBusyError(RuntimeError):
-    """Every recording slot is taken and enough requests wait for one (HTTP 503)."""
 
 
 class RecordingSlots:

@@ -9,11 +9,14 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from bowlrec.errors import SamplesRequiredError
 
 if TYPE_CHECKING:
     from bowlrec.core.plan import Plan
@@ -30,12 +33,9 @@ __all__ = [
     "friction_cells",
     "markings_body",
     "quaternion_xyzw",
+    "rev_rate_rpm",
     "series_columns",
 ]
-
-
-class SamplesRequiredError(ValueError):
-    """A sink that draws motion was given a summary-only run (no samples)."""
 
 
 @dataclass(frozen=True)
@@ -43,13 +43,16 @@ class RunData:
     """One finished run as the sinks see it.
 
     scene: the scene as given (validated); plan: its resolved SI parameters; trajectory: the
-    result; run_id: the archive's content ID when known (None for an unarchived run).
+    result; run_id: the archive's content ID when known (None for an unarchived run);
+    provenance: what produced an archived run (package versions, solver settings, wall time,
+    created-at, segment), as a run file stores it (None for an unarchived run).
     """
 
     scene: Scene
     plan: Plan
     trajectory: Trajectory
     run_id: str | None = None
+    provenance: Mapping[str, str | int | float | bool] | None = None
 
     @property
     def name(self) -> str:
@@ -151,7 +154,7 @@ def series_columns(traj: Trajectory) -> dict[str, tuple[Array, str]]:
     """
     return {
         "speed_mps": (traj.speed_mps, "m/s"),
-        "rev_rate_rpm": (traj.rev_rate_rpm, "rpm"),
+        "rev_rate_rpm": (rev_rate_rpm(traj.omega_radps), "rpm"),
         "slip_speed_mps": (np.linalg.norm(traj.slip_mps, axis=1), "m/s"),
         "mu": (np.asarray(traj.mu, dtype=np.float64), "1"),
         "normal_force_N": (np.asarray(traj.normal_force_N, dtype=np.float64).reshape(-1), "N"),
@@ -159,6 +162,11 @@ def series_columns(traj: Trajectory) -> dict[str, tuple[Array, str]]:
         "energy_J": (np.asarray(traj.energy_J, dtype=np.float64), "J"),
         "phase": (np.asarray(traj.phase, dtype=np.float64), "0 sliding / 1 rolling"),
     }
+
+
+def rev_rate_rpm(omega_radps: Array) -> Array:
+    """The rev rate |omega| in rpm (rev/min) of each (n, 3) angular velocity in rad/s."""
+    return np.asarray(np.linalg.norm(omega_radps, axis=1) * 60.0 / (2.0 * math.pi))
 
 
 def summary_text(traj: Trajectory) -> str:

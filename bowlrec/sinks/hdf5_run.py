@@ -13,7 +13,7 @@ Layout (every dataset has a ``units`` attribute; arrays are chunked, gzip level 
 
 Files are written with the default ``libver`` (readable by HDF5 1.10-era tools; ``"latest"``
 in h5py 3.16 / HDF5 2.0 writes structures older readers reject) and whole-or-nothing through
-:func:`~bowlrec.sinks.atomic.atomic_path`.
+:func:`~bowlrec.atomic_files.atomic_path`.
 """
 
 from __future__ import annotations
@@ -27,9 +27,10 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
+from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
+from bowlrec.errors import RunFileError
 
-from .atomic import atomic_path
 from .common import RunData, dumps
 from .units import DIMENSIONLESS, units_for
 
@@ -43,6 +44,7 @@ __all__ = [
     "StoredRun",
     "read_run_file",
     "read_run_header",
+    "write_run",
     "write_run_file",
 ]
 
@@ -53,10 +55,6 @@ FORMAT_VERSION = "1.0"
 _COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 _EVENT_FIELDS = ("t_s", "kind", "x_m", "y_m", "mu", "phase")
 _STR = h5py.string_dtype("utf-8")
-
-
-class RunFileError(ValueError):
-    """A file is not a bowlrec run file, or of an unsupported format version."""
 
 
 @dataclass(frozen=True)
@@ -149,6 +147,16 @@ def write_run_file(
         _write_events(f.create_group("events"), run.trajectory.events)
         _write_summary(f.create_group("summary"), run.trajectory.summary)
     return path
+
+
+def write_run(run: RunData, path: str | Path) -> Path:
+    """Write ``run`` to ``path`` as a run file (the registry's writer); its provenance is the
+    run's own (:attr:`RunData.provenance`, for an archived run) or, for a run never archived,
+    this process's versions and platform. Returns the final path."""
+    from bowlrec.archive.provenance import environment
+
+    attrs = dict(run.provenance) if run.provenance is not None else environment()
+    return write_run_file(path, run, attrs)
 
 
 def _check_format(f: h5py.File, path: Path) -> None:

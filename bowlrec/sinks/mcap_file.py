@@ -3,7 +3,7 @@
 One file per run (:func:`write_mcap`), or several runs side by side (:func:`write_mcap_batch`).
 Written with the foxglove SDK (protobuf well-known schemas, zstd chunks, every CRC computed) into
 a temporary file in the target directory, then moved into place with :func:`os.replace`
-(:func:`~bowlrec.sinks.atomic.atomic_path`), so the final name only ever holds a complete file.
+(:func:`~bowlrec.atomic_files.atomic_path`), so the final name only ever holds a complete file.
 
 Topics of a single-run file (a batch file prefixes each with ``/<run key>``):
 
@@ -68,9 +68,10 @@ from foxglove.messages import (
 from numpy.typing import NDArray
 
 from bowlrec import PHYSICS_VERSION, __version__
-from bowlrec.core.trajectory import EVENT_KINDS, Event, Trajectory
+from bowlrec.atomic_files import atomic_path
+from bowlrec.core.codes import EVENT_KINDS
+from bowlrec.core.trajectory import Event, Trajectory
 
-from .atomic import atomic_path
 from .common import Array, RunData, friction_cells, markings_body, series_columns, summary_text
 
 __all__ = [
@@ -627,7 +628,7 @@ def _write_file(
     path: str | os.PathLike[str], fill: Callable[[MCAPWriter, foxglove.Context], None]
 ) -> Path:
     """Write with ``fill(writer, context)`` to a temporary file beside ``path``, then move it
-    into place (:func:`~bowlrec.sinks.atomic.atomic_path`: on any error the temporary is
+    into place (:func:`~bowlrec.atomic_files.atomic_path`: on any error the temporary is
     removed and ``path`` is left as it was)."""
     with atomic_path(path) as tmp:
         ctx = foxglove.Context()

@@ -36,7 +36,10 @@ from matplotlib.patches import Rectangle
 from matplotlib.transforms import offset_copy
 from numpy.typing import ArrayLike, NDArray
 
+from bowlrec.core.codes import ROLLING
+
 from .common import FrictionCell, RunData, friction_cells, series_columns
+from .registry import sink_named
 
 __all__ = [
     "PAPER_EXAGGERATION",
@@ -72,7 +75,8 @@ FIGURE_WIDTH_IN = 12.0
 #: resolution of PNG output (dots per inch)
 PNG_DPI = 150
 
-_FORMATS = {".png": "png", ".svg": "svg"}
+#: matplotlib format of each suffix the registry gives plots
+_FORMATS = {suffix: suffix[1:] for suffix in sink_named("plot").suffixes}
 #: run colors, chosen to stand out on the tan lane (no browns or oranges)
 _RUN_COLORS = (
     "#1f4e9c",
@@ -123,7 +127,9 @@ def _new_file_mode(path: Path) -> int:
 
 
 def _save_atomic(fig: Figure, path: Path, fmt: str) -> Path:
-    """Write ``fig`` to a temporary file next to ``path``, then rename it over ``path``."""
+    """Write ``fig`` to a temporary file next to ``path`` (its directory created if missing),
+    then rename it over ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     mode = _new_file_mode(path)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     tmp = Path(tmp_name)
@@ -155,6 +161,11 @@ def plot_runs(
     fmt = _format_for(out)
     fig = runs_figure(runs, exaggerate=exaggerate, title=title)
     return _save_atomic(fig, out, fmt)
+
+
+def write_plot(run: RunData, path: str | os.PathLike[str]) -> Path:
+    """:func:`plot_runs` of the one run ``run`` (the registry's writer)."""
+    return plot_runs([run], path)
 
 
 def plot_series(run: RunData, path: str | os.PathLike[str], *, title: str | None = None) -> Path:
@@ -617,7 +628,7 @@ def series_figure(run: RunData, *, title: str | None = None) -> Figure:
 
 def _rolling_spans(t: Array, phase: NDArray[np.int8]) -> list[tuple[float, float]]:
     """(t_start, t_end) in s of the maximal runs of samples with phase 1 (rolling)."""
-    rolling = phase == 1
+    rolling = phase == ROLLING
     spans: list[tuple[float, float]] = []
     start: float | None = None
     for ti, r in zip(t, rolling, strict=True):
@@ -660,7 +671,7 @@ def _event_legend(fig: Figure, run: RunData) -> None:
     handles: list[Line2D | Rectangle] = [
         Line2D([], [], color=_event_color(k), lw=1.0, ls="--", label=_event_label(k)) for k in kinds
     ]
-    if np.any(np.asarray(run.trajectory.phase) == 1):
+    if np.any(np.asarray(run.trajectory.phase) == ROLLING):
         handles.append(Rectangle((0, 0), 1, 1, color="#1b8a3a", alpha=0.15, label="rolling"))
     if handles:
         fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=9)

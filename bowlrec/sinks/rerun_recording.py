@@ -43,7 +43,10 @@ import rerun.blueprint as rrb
 from numpy.typing import NDArray
 from rerun.chunk import RrdReader
 
-from .atomic import atomic_path
+from bowlrec.atomic_files import atomic_path
+from bowlrec.core.codes import PHASE_NAMES, ROLLING
+from bowlrec.errors import ViewerUnavailableError
+
 from .common import friction_cells, markings_body, quaternion_xyzw, series_columns, summary_text
 
 if TYPE_CHECKING:
@@ -126,10 +129,6 @@ _EVENT_LEVEL = {
     "airborne": rr.TextLogLevel.WARN,
     "max_time": rr.TextLogLevel.WARN,
 }
-
-
-class ViewerUnavailableError(RuntimeError):
-    """No viewer can be reached: no display to spawn one, or nothing listens at the URL."""
 
 
 # --------------------------------------------------------------------------------------------
@@ -454,8 +453,8 @@ def _log_path(rec: rr.RecordingStream, traj: Trajectory, radius: float) -> None:
     starts = np.concatenate([[0], np.flatnonzero(np.diff(phase)) + 1])
     ends = np.concatenate([starts[1:] + 1, [phase.size]])  # overlap one sample: no gaps
     strips = [track[a:b] for a, b in zip(starts, ends, strict=True)]
-    colors = [_ROLLING_RGBA if phase[a] == 1 else _SLIDING_RGBA for a in starts]
-    labels = ["rolling" if phase[a] == 1 else "sliding" for a in starts]
+    colors = [_ROLLING_RGBA if phase[a] == ROLLING else _SLIDING_RGBA for a in starts]
+    labels = [PHASE_NAMES[int(phase[a])] for a in starts]
     rec.log(
         "/world/path",
         rr.LineStrips3D(strips, colors=colors, radii=0.006, labels=labels, show_labels=False),

@@ -13,6 +13,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from bowlrec.errors import SpecFileError
+
 from .scene import Scene
 
 __all__ = ["MAX_NESTING", "SpecFileError", "dump_scene_json", "load_scene", "read_mapping"]
@@ -20,10 +22,6 @@ __all__ = ["MAX_NESTING", "SpecFileError", "dump_scene_json", "load_scene", "rea
 _YAML_SUFFIXES = {".yaml", ".yml"}
 #: deepest nesting of lists and mappings a spec file may have (a job is about 8 levels deep)
 MAX_NESTING = 64
-
-
-class SpecFileError(ValueError):
-    """A file that cannot be read as a spec (the message does not repeat the path)."""
 
 
 def read_mapping(path: str | Path) -> Any:

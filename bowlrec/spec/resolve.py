@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from bowlrec.core.plan import (
+from bowlrec.core.codes import (
     RECORD_RATE,
     RECORD_STEPS,
     RECORD_SUMMARY,
     SLIDE_TO_ROLL_EXACT,
     SLIDE_TO_ROLL_THRESHOLD,
-    Plan,
 )
+from bowlrec.core.plan import Plan
 
 from .friction_grid import build_friction_grid, clip_to_lane
 from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quaternion_to_matrix

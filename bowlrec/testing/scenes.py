@@ -1,8 +1,13 @@
-"""Benchmark scenes as :class:`~bowlrec.core.plan.Plan` objects (summary-only recording).
+"""Reference deliveries as :class:`~bowlrec.core.plan.Plan` objects (summary-only recording).
 
 * :func:`table3_plans`: the 18 Table III cases of Frohlich (2004) as written;
 * :func:`random_plans`: fixed-seed random but realistic deliveries (non-scalar inertia with random
-  principal axes, center-of-mass offsets, tilted spin, two kinds of lane).
+  principal axes, center-of-mass offsets, tilted spin, two kinds of lane);
+* :func:`random_scene_dicts`: the scene dictionaries behind :func:`random_plans`.
+
+The generator is deterministic (NumPy's ``default_rng`` with a fixed seed, draws in a fixed
+order): the same arguments give the same scenes to the last bit, which the tests and the
+benchmarks' stored results rely on. Changing a draw changes every scene after it.
 """
 
 from __future__ import annotations

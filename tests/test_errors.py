@@ -1,0 +1,228 @@
+"""One exception hierarchy (:mod:`bowlrec.errors`): every error class of the package derives
+from BowlrecError through one category, and the command line and the service each map a
+category to one exit code and one HTTP status."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import json
+import pkgutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+import bowlrec
+from bowlrec import errors as E
+from bowlrec.archive import Archive
+from bowlrec.cli import app
+from bowlrec.cli._common import EXIT_CODES
+
+runner = CliRunner()
+
+#: the categories, each with the exit code and HTTP status the docs promise
+CATEGORIES: dict[type[E.BowlrecError], tuple[int, int]] = {
+    E.InputError: (2, 422),
+    E.NotFoundError: (1, 404),
+    E.ConflictError: (2, 409),
+    E.BusyError: (1, 503),
+    E.DamagedError: (1, 409),
+    E.StorageError: (1, 507),
+    E.UnavailableError: (1, 501),
+}
+
+#: one error of each category, as the code raises it
+SAMPLES: list[E.BowlrecError] = [
+    E.IndexQueryError("unknown column 'nope' in filter"),
+    E.RunNotFoundError("no run '0123abcd'"),
+    E.JobConflictError("job 0123 is already done"),
+    E.ServerBusyError("the server is busy: retry later"),
+    E.RunDamagedError("0123abcd", "seg1", "digest mismatch"),
+    E.ArchiveWriteError("could not write a segment (disk full); nothing already archived was lost"),
+    E.MissingExtraError("MCAP needs foxglove, which is not installed", name="foxglove"),
+]
+
+#: the builtin base each class keeps, so that ``except <builtin>`` in callers still works
+BUILTIN_BASES: dict[type[E.BowlrecError], type[Exception]] = {
+    E.SpecError: ValueError,
+    E.SceneInputError: ValueError,
+    E.JobError: ValueError,
+    E.SpecFileError: ValueError,
+    E.IllegalBallError: ValueError,
+    E.BallRefError: ValueError,
+    E.IndexQueryError: ValueError,
+    E.UnknownFormatError: ValueError,
+    E.RunFileError: ValueError,
+    E.ConfigError: ValueError,
+    E.ArchiveError: RuntimeError,
+    E.MigrationError: RuntimeError,
+    E.RunNotFoundError: KeyError,
+    E.BallNotFoundError: KeyError,
+    E.JobNotFoundError: KeyError,
+    E.SamplesRequiredError: ValueError,
+    E.JobConflictError: RuntimeError,
+    E.JobsLockedError: RuntimeError,
+    E.ServerBusyError: RuntimeError,
+    E.RunDamagedError: ValueError,
+    E.SegmentError: ValueError,
+    E.IndexUnreadableError: RuntimeError,
+    E.ArchiveWriteError: OSError,
+    E.MissingExtraError: ImportError,
+    E.ViewerUnavailableError: RuntimeError,
+}
+
+
+def _category(err: E.BowlrecError) -> type[E.BowlrecError]:
+    return next(kind for kind in CATEGORIES if isinstance(err, kind))
+
+
+def _package_exceptions() -> set[type[BaseException]]:
+    """Every exception class defined in a bowlrec module (each module imported)."""
+    for info in pkgutil.walk_packages(bowlrec.__path__, "bowlrec."):
+        if not info.name.endswith("__main__"):  # runs the command line
+            importlib.import_module(info.name)
+    return {
+        obj
+        for name, module in list(sys.modules.items())
+        if (name == "bowlrec" or name.startswith("bowlrec.")) and module is not None
+        for obj in vars(module).values()
+        if inspect.isclass(obj)
+        and issubclass(obj, BaseException)
+        and obj.__module__.split(".")[0] == "bowlrec"
+    }
+
+
+def test_every_exception_class_of_the_package_is_a_bowlrec_error() -> None:
+    from bowlrec.service.body_limit import BodyTooLargeError
+
+    found = _package_exceptions()
+    # the body limit's signal is an HTTPException by design: FastAPI lets only those through
+    # its body parsing, and the middleware answers 413 for it; it never reaches a caller
+    outside = {c for c in found if not issubclass(c, E.BowlrecError)} - {BodyTooLargeError}
+    assert not outside, sorted(c.__qualname__ for c in outside)
+    assert set(E.__all__) <= {c.__name__ for c in found}
+    for cls in found - {BodyTooLargeError, E.BowlrecError, *CATEGORIES}:
+        kinds = [kind for kind in CATEGORIES if issubclass(cls, kind)]
+        assert len(kinds) == 1, (cls, kinds)
+
+
+def test_concrete_errors_keep_their_builtin_base() -> None:
+    concrete = {getattr(E, n) for n in E.__all__} - {E.BowlrecError, *CATEGORIES}
+    assert set(BUILTIN_BASES) == concrete
+    for cls, builtin in BUILTIN_BASES.items():
+        assert issubclass(cls, builtin), cls
+    with pytest.raises(KeyError):
+        raise E.RunNotFoundError("no run 'x'")
+    assert str(E.BallNotFoundError("no ball 'x'")) == "no ball 'x'"  # not KeyError's quotes
+
+
+def test_the_front_ends_map_every_category() -> None:
+    from bowlrec.service.app import STATUS_CODES
+
+    assert {k: v[0] for k, v in CATEGORIES.items()} == EXIT_CODES
+    assert {k: v[1] for k, v in CATEGORIES.items()} == STATUS_CODES
+    assert set(CATEGORIES) == set(E.BowlrecError.__subclasses__())
+    assert [_category(e) for e in SAMPLES] == list(CATEGORIES)
+
+
+def test_errors_module_loads_only_the_standard_library() -> None:
+    code = (
+        "import json, sys; before = set(sys.modules); import bowlrec.errors; "
+        "print(json.dumps(sorted(set(sys.modules) - before)))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    new = json.loads(out.stdout)
+    assert not {m.split(".")[0] for m in new} & {"pydantic", "numpy", "typer", "fastapi"}, new
+
+
+# -- the command line ----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("err", SAMPLES, ids=lambda e: type(e).__name__)
+def test_cli_exit_code_of_each_category(
+    err: E.BowlrecError, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    Archive(tmp_path / "a")
+
+    def fails(*args: Any, **kw: Any) -> Any:
+        raise err
+
+    monkeypatch.setattr(Archive, "list_runs", fails)
+    result = runner.invoke(app, ["runs", "list", "-a", str(tmp_path / "a")])
+    assert result.exit_code == CATEGORIES[_category(err)][0]
+    assert result.output == f"error: {err}\n"
+
+
+def test_cli_errors_from_real_commands(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    arch = str(Archive(tmp_path / "a").root)
+    # input: an output file of unknown type (refused before simulating)
+    bad = runner.invoke(app, ["simulate", "--no-archive", "--out", str(tmp_path / "r.txt")])
+    assert bad.exit_code == 2 and "unknown suffix '.txt'" in bad.output
+    # not found
+    missing = runner.invoke(app, ["runs", "show", "0123abcd", "-a", arch])
+    assert missing.exit_code == 1 and "no run '0123abcd'" in missing.output
+    # conflict: replaying a run stored without samples
+    scene = tmp_path / "summary.json"
+    scene.write_text(json.dumps({"options": {"record": "summary"}}))
+    done = runner.invoke(app, ["simulate", str(scene), "-a", arch, "--json"])
+    rid = json.loads(done.output)["run_id"]
+    replay = runner.invoke(app, ["replay", rid, "-a", arch, "--mcap", str(tmp_path / "r.mcap")])
+    assert replay.exit_code == 2 and "options.record = 'summary'" in replay.output
+    # input: a config file that is not TOML
+    config = tmp_path / "config.toml"
+    config.write_text("archive = \n")
+    monkeypatch.setenv("BOWLREC_CONFIG", str(config))
+    monkeypatch.delenv("BOWLREC_ARCHIVE", raising=False)
+    broken = runner.invoke(app, ["runs", "list"])
+    assert broken.exit_code == 2 and "not valid TOML" in broken.output
+    assert broken.output.count("\n") == 1
+
+
+# -- the service ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("err", SAMPLES, ids=lambda e: type(e).__name__)
+def test_service_status_of_each_category(
+    err: E.BowlrecError, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    pytest.importorskip("fastapi")
+    from fastapi.testclient import TestClient
+
+    from bowlrec.service.app import create_app
+
+    service = create_app(tmp_path / "a", warm_up=False)
+
+    def fails(*args: Any, **kw: Any) -> Any:
+        raise err
+
+    monkeypatch.setattr(service.state.bowlrec.archive, "list_runs", fails)
+    with TestClient(service, base_url="http://127.0.0.1") as client:
+        r = client.get("/runs")
+    assert r.status_code == CATEGORIES[_category(err)][1], r.text
+    assert r.json() == {"detail": str(err)}
+    assert (r.headers.get("retry-after") == "1") == isinstance(err, E.BusyError)
+
+
+def test_service_errors_from_real_requests(tmp_path: Path) -> None:
+    """A real server: an invalid filter, an unknown run and a replay of a run stored without
+    samples are answered by their category's status."""
+    pytest.importorskip("httpx")
+    from test_service import start_server
+
+    server = start_server(tmp_path / "archive")
+    try:
+        with server.client() as client:
+            bad = client.get("/runs", params={"where": "nope>1"})
+            assert bad.status_code == 422 and "unknown column 'nope'" in bad.json()["detail"]
+            assert client.get("/runs/0123abcd").status_code == 404
+            scene = {"options": {"record": "summary"}}
+            rid = client.post("/runs", json=scene).json()["run_id"]
+            replay = client.get(f"/runs/{rid}/files/mcap")
+            assert replay.status_code == 409, replay.text
+            assert replay.json()["detail"].startswith(f"run {rid} cannot be replayed: ")
+    finally:
+        server.stop()
