@@ -68,8 +68,8 @@ def _job(name: str, n: int | None = None) -> Any:
 def _packed(job: Any, n: int) -> Any:
     """The first ``n`` deliveries of a job, packed for the kernel (prepared untimed)."""
     from bowlrec.batch import job_context
-    from bowlrec.batch.chunks import prepare_point
     from bowlrec.batch.fastprep import FastSweep
+    from bowlrec.batch.job import prepare_point
     from bowlrec.core.batch import pack_plans
     from bowlrec.spec import Scene
 
@@ -176,7 +176,8 @@ def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
     """µs per run of each stage in one process (a chunk of ``n`` runs, after a warm chunk)."""
     from bowlrec.archive import Archive
     from bowlrec.batch import job_context
-    from bowlrec.batch.chunks import ChunkTask, WriteTarget, run_chunk
+    from bowlrec.batch.chunks import ChunkTask, run_chunk
+    from bowlrec.batch.context import WriteTarget
     from bowlrec.batch.fastprep import FastSweep
     from bowlrec.spec import Scene
 

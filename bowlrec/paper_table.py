@@ -6,6 +6,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.readme_blocks import replace_block
+
 from .core.trajectory import Summary
 from .paper import TABLE_III, PaperCase, paper_scene
 
@@ -40,7 +43,6 @@ def run_paper_cases(
     progress: Callable[[int], None] | None = None,
 ) -> list[ComparisonRow]:
     """Simulate the selected cases (default all 18) in both readings, summary only."""
-    from .core.codes import RECORD_SUMMARY
     from .core.solver import solve
 
     wanted = set(cases) if cases is not None else None
@@ -132,6 +134,5 @@ README_BLOCK = "table3"
 
 def update_readme(path: str | Path, table: str) -> bool:
     """Replace the Table III block of a README; returns True when the file changed."""
-    from .readme_blocks import replace_block
 
     return replace_block(path, README_BLOCK, table)

@@ -33,7 +33,8 @@ from bowlrec.batch import (
     run_job,
     simulate_many,
 )
-from bowlrec.batch.chunks import ChunkTask, WriteTarget, run_chunk
+from bowlrec.batch.chunks import ChunkTask, run_chunk
+from bowlrec.batch.context import WriteTarget
 from bowlrec.batch.fastprep import FastSweep
 from bowlrec.batch.table import table_columns
 from bowlrec.core.batch import pack_plans

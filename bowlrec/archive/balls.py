@@ -22,6 +22,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias
 
+from bowlrec.atomic_files import atomic_path
 from bowlrec.errors import BallNotFoundError, BallRefError, SpecError
 
 from .index import transaction
@@ -178,7 +179,6 @@ class BallLibrary:
                 "note": note,
                 "spec": ball.model_dump(mode="json"),
             }
-            from bowlrec.atomic_files import atomic_path
 
             with atomic_path(self._dir(name) / f"{version}.json", hold_lock=True) as tmp:
                 tmp.write_text(json.dumps(doc, indent=1) + "\n")
@@ -262,8 +262,6 @@ class BallLibrary:
             "balls": [e.to_json_dict() for e in self.list(all_versions=True)],
         }
         if path is not None:
-            from bowlrec.atomic_files import atomic_path
-
             with atomic_path(path) as tmp:
                 tmp.write_text(json.dumps(doc, indent=2) + "\n")
         return doc

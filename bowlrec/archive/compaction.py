@@ -15,7 +15,8 @@ from collections import defaultdict
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.atomic_files import fsync_dir
+from bowlrec.archive.quarantine import QUARANTINE_FORMAT
+from bowlrec.atomic_files import atomic_path, fsync_dir
 from bowlrec.errors import RunDamagedError, SegmentError
 
 from .index import transaction
@@ -141,9 +142,6 @@ def _now() -> str:
 def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
     """Damaged copies outlive their tombstones as quarantine reports (``runs list --damaged``
     still lists them after an index rebuild)."""
-    from bowlrec.atomic_files import atomic_path
-
-    from .repair import QUARANTINE_FORMAT
 
     by_segment: dict[str, list[Tombstone]] = defaultdict(list)
     for e in entries:
@@ -167,7 +165,6 @@ def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
 def _drop_applied_tombstones(archive: Archive, con: Any, removed: set[str]) -> int:
     """Delete the tombstones of the segments this compaction deleted (index rows and files);
     the count of tombstone files deleted."""
-    from bowlrec.atomic_files import atomic_path
 
     deleted = 0
     with transaction(con, write=True):

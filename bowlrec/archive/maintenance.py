@@ -22,6 +22,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bowlrec.archive.balls import ball_file_row
+from bowlrec.archive.quarantine import quarantine_reports
 from bowlrec.atomic_files import fsync_dir, remove_stale_parts
 from bowlrec.errors import SegmentError
 
@@ -132,7 +134,6 @@ def _ball_files(archive: Archive) -> list[Path]:
 
 
 def _index_ball_files(archive: Archive, con: sqlite3.Connection, *, only_new: bool) -> int:
-    from .balls import ball_file_row
 
     known = (
         {(r[0], int(r[1])) for r in con.execute("SELECT name, version FROM balls")}
@@ -217,7 +218,6 @@ def recover(archive: Archive, con: sqlite3.Connection, *, min_age_s: float = 2.0
 
 
 def _populate(archive: Archive, con: sqlite3.Connection) -> dict[str, int]:
-    from .repair import quarantine_reports
 
     with transaction(con, write=True):
         balls = _index_ball_files(archive, con, only_new=False)

@@ -21,6 +21,9 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from bowlrec.archive.balls import BALL_FILE_FORMAT, ball_sha
+from bowlrec.archive.store import ARCHIVE_FORMAT, ARCHIVE_FORMAT_VERSION, Archive, pattern_label
+from bowlrec.atomic_files import atomic_path
 from bowlrec.errors import MigrationError, RunFileError
 
 __all__ = ["V1_BACKUP", "MigrationError", "migrate"]
@@ -104,13 +107,10 @@ def migrate(
     """Convert the format 1.0 archive at ``root`` to 2.0 in place; a report (counts, the run
     files that could not be read, where the 1.0 files were kept). ``progress(done, total)`` is
     called as run files are converted."""
-    from bowlrec.atomic_files import atomic_path
     from bowlrec.sinks.common import RunData
     from bowlrec.sinks.hdf5_run import read_run_file
 
-    from .balls import BALL_FILE_FORMAT, ball_sha
     from .segment import RunRecord, SegmentBuilder
-    from .store import ARCHIVE_FORMAT, ARCHIVE_FORMAT_VERSION, Archive, pattern_label
 
     root = Path(root).expanduser()
     marker = root / "archive.json"

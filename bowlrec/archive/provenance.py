@@ -6,13 +6,15 @@ from __future__ import annotations
 import functools
 import platform
 import sys
+from importlib.metadata import PackageNotFoundError, version
 from typing import Any
+
+import bowlrec
 
 __all__ = ["environment"]
 
 
 def _version(module: str) -> str:
-    from importlib.metadata import PackageNotFoundError, version
 
     try:
         return version(module)
@@ -23,8 +25,6 @@ def _version(module: str) -> str:
 @functools.cache
 def _environment() -> tuple[tuple[str, str], ...]:
     import h5py
-
-    import bowlrec
 
     return (
         ("bowlrec_version", bowlrec.__version__),

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Iterator
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,6 +22,7 @@ from bowlrec.errors import SegmentError
 
 from .index import transaction
 from .maintenance import promote_copies, recover
+from .quarantine import QUARANTINE_FORMAT
 from .registry import register_segment
 from .segment import SegmentBuilder
 from .segment_file import SegmentFile
@@ -32,22 +32,7 @@ if TYPE_CHECKING:
 
     from .store import Archive
 
-__all__ = ["quarantine_reports", "repair"]
-
-QUARANTINE_FORMAT = "bowlrec-quarantine"
-
-
-def quarantine_reports(archive: Archive) -> Iterator[dict[str, Any]]:
-    """The reports of quarantined segments (oldest first)."""
-    if not archive.quarantine_dir.is_dir():
-        return
-    for path in sorted(archive.quarantine_dir.glob("*.json")):
-        try:
-            doc = json.loads(path.read_text())
-        except (OSError, ValueError):
-            continue
-        if isinstance(doc, dict) and doc.get("format") == QUARANTINE_FORMAT:
-            yield doc
+__all__ = ["repair"]
 
 
 def _provenance(seg: SegmentFile) -> dict[str, Any]:

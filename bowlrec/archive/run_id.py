@@ -13,6 +13,8 @@ import hashlib
 import json
 from typing import TYPE_CHECKING, Any
 
+from bowlrec import PHYSICS_VERSION
+
 if TYPE_CHECKING:
     from bowlrec.core.plan import Plan
 
@@ -50,8 +52,6 @@ def canonical_plan(plan: Plan) -> dict[str, Any]:
 def run_id(plan: Plan, physics_version: str | None = None) -> str:
     """The run's content ID: SHA-256 of the canonical Plan and the physics version (hex)."""
     if physics_version is None:
-        from bowlrec import PHYSICS_VERSION
-
         physics_version = PHYSICS_VERSION
     payload = json.dumps(
         {"physics_version": physics_version, "plan": canonical_plan(plan)},

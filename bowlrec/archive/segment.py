@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
 
 if TYPE_CHECKING:
@@ -445,16 +446,6 @@ class SummaryRuns:
     def columns(self) -> dict[str, Any]:
         """Every dataset of a segment holding these runs (as :meth:`SegmentBuilder.columns`
         makes them for the same runs appended as records)."""
-        from bowlrec.core.codes import (
-            EV_KIND,
-            EV_MU,
-            EV_PHASE,
-            EV_T,
-            EV_X,
-            EV_Y,
-            EVENT_KINDS,
-            PHASE_NAMES,
-        )
 
         n = len(self)
         runs: dict[str, NDArray[Any]] = {}

@@ -33,6 +33,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from bowlrec.archive.balls import parse_ball_ref
+from bowlrec.archive.provenance import environment
+from bowlrec.archive.run_id import run_id as content_id
+from bowlrec.archive.tombstones import Tombstone
+from bowlrec.atomic_files import atomic_path
 from bowlrec.errors import (
     ArchiveError,
     ArchiveWriteError,
@@ -41,6 +46,7 @@ from bowlrec.errors import (
     RunNotFoundError,
     SegmentError,
 )
+from bowlrec.sinks.registry import sink_named
 
 from .balls import BallLibrary, ball_sha
 from .index import (
@@ -169,7 +175,6 @@ class Archive:
 
     def _create(self, marker: Path) -> None:
         """Make a new archive; safe when several processes create the same one at once."""
-        from bowlrec.atomic_files import atomic_path
 
         self.root.mkdir(parents=True, exist_ok=True)
         with self.writer_lock():
@@ -276,7 +281,6 @@ class Archive:
     def builder(self, *, samples: str = "gzip") -> SegmentBuilder:
         """A new segment builder carrying this process's provenance; ``samples``: the storage
         filter of per-sample datasets, "gzip" or "none" (faster; compaction recompresses)."""
-        from .provenance import environment
         from .segment import SegmentBuilder
 
         return SegmentBuilder(environment(), samples=samples)
@@ -329,7 +333,6 @@ class Archive:
     def seal(self, builder: SegmentBuilder | SummaryRuns, *, durable: bool = True) -> SegmentInfo:
         """Write the builder's runs (or columns of summary-only runs) as a sealed segment of
         this archive (not yet registered)."""
-        from .provenance import environment
         from .segment import SummaryRuns, seal_columns
 
         try:
@@ -404,8 +407,6 @@ class Archive:
         """
         from bowlrec.sinks.common import RunData as _RunData
 
-        from .run_id import run_id as content_id
-
         rid = run.run_id or content_id(run.plan)
         run = _RunData(run.scene, run.plan, run.trajectory, rid)
         found = self.locate(rid)
@@ -437,8 +438,6 @@ class Archive:
         from bowlrec.core.solver import solve, use_closed_form
         from bowlrec.sinks.common import RunData
 
-        from .run_id import run_id as content_id
-
         plan = scene.resolve()
         rid = content_id(plan)
         found = self.locate(rid)
@@ -466,7 +465,6 @@ class Archive:
         """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it
         from the index; a damaged copy is listed by :meth:`damaged`."""
         from .maintenance import kill_copies
-        from .tombstones import Tombstone
 
         with self.writer_lock():
             kill_copies(self, self.index_writer(), [Tombstone(segment_id, run_id, reason)])
@@ -478,7 +476,6 @@ class Archive:
         run never comes back; :meth:`compact` reclaims the space.
         """
         from .maintenance import kill_copies
-        from .tombstones import Tombstone
 
         rid = self.resolve_id(run_id)
         with self.writer_lock():
@@ -548,7 +545,6 @@ class Archive:
         """Runs that used library ball ``name`` (any version) or ``name@version``: by the
         reference stored with the run, or by an identical spec (runs made before the ball was
         added to the library)."""
-        from .balls import parse_ball_ref
 
         bname, bversion = parse_ball_ref(ball)
         shas = [
@@ -715,7 +711,6 @@ class Archive:
         """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, with the
         resolved parameters and the run's provenance) at ``dest`` (a file or an existing
         directory)."""
-        from bowlrec.sinks.registry import sink_named
 
         run = self.run_data(run_id)
         dest = Path(dest)

@@ -32,8 +32,9 @@ from .job import (
     prepare_runs,
 )
 from .many import simulate_many
-from .runner import BatchProgress, BatchResult, InlineExecutor, run_job
+from .runner import BatchProgress, InlineExecutor, run_job
 from .table import (
+    BatchResult,
     TableWriter,
     table_columns,
     table_paths,

@@ -23,8 +23,30 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bowlrec.core.codes import EVENT_KINDS, PHASE_NAMES, ROLLING
-from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS
+from bowlrec.archive import Archive, RunRecord, SummaryRuns
+from bowlrec.archive.balls import ball_sha
+from bowlrec.archive.store import pattern_label
+from bowlrec.batch.fastprep import FastSweep
+from bowlrec.batch.job import PreparedRun, prepare_point
+from bowlrec.core.codes import (
+    EV_KIND,
+    EV_MU,
+    EV_PHASE,
+    EV_T,
+    EV_X,
+    EV_Y,
+    EVENT_KINDS,
+    PHASE_NAMES,
+    RECORD_SUMMARY,
+    ROLLING,
+)
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Event, summary_trajectory
+from bowlrec.errors import ArchiveWriteError
+from bowlrec.sinks.common import RunData
+from bowlrec.sinks.registry import sink_named
+from bowlrec.spec import Scene
+
+from .context import JobContext, WriteTarget
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive, RunRecord, SegmentInfo, SummaryRuns
@@ -33,7 +55,7 @@ if TYPE_CHECKING:
     from bowlrec.core.trajectory import Summary
 
     from .fastprep import FastSweep
-    from .job import JobSpec, Point, PreparedRun
+    from .job import Point, PreparedRun
 
 __all__ = [
     "FAILED_OUTCOMES",
@@ -41,8 +63,6 @@ __all__ = [
     "ChunkResult",
     "ChunkTable",
     "ChunkTask",
-    "JobContext",
-    "WriteTarget",
     "run_chunk",
 ]
 
@@ -54,68 +74,6 @@ SEAL_SAMPLES = 1_000_000
 METRIC_COLUMNS = ("outcome", *FLOAT_METRICS, *INT_METRICS)
 #: event kind name -> the kernels' code
 _EVENT_CODES = {name: float(code) for code, name in EVENT_KINDS.items()}
-
-
-@dataclass(frozen=True)
-class JobContext:
-    """What a worker needs to prepare any run of a job (small and picklable).
-
-    base_*: the validated base scene as a JSON mapping (library ball substituted);
-    balls: the library balls the job names ("name" or "name@version" -> (spec mapping,
-    "name@version")), resolved by the parent; ball_refs: ball-spec SHA-256 -> newest library
-    reference (runs whose ball equals a library spec carry its name); fast_paths: the swept
-    paths when :class:`~bowlrec.batch.fastprep.FastSweep` prepares the job, else None.
-    """
-
-    key: str
-    job: JobSpec
-    base_bowler: bool
-    base_data: dict[str, Any]
-    base_ref: str | None
-    base_dir: str
-    balls: dict[str, tuple[dict[str, Any], str]]
-    ball_refs: dict[str, str]
-    fast_paths: tuple[str, ...] | None
-    replay_dir: str | None = None
-    formats: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True)
-class WriteTarget:
-    """Where a worker stores runs: the archive's root; ``mode`` "yes" (write segments),
-    "no" (ship records back) or "auto" (write when ``probe`` exists with ``token``: the worker
-    sees the archive's filesystem); ``durable`` fsyncs segments."""
-
-    root: str
-    mode: str = "yes"
-    probe: str | None = None
-    token: str | None = None
-    durable: bool = True
-    #: a file to which a writing worker appends ``index run_id`` lines (fsynced) for the runs
-    #: it is about to seal, so the caller can account for a segment sealed just before a kill
-    run_log: str | None = None
-
-    def log_runs(self, index: Sequence[int], run_ids: Sequence[str | None]) -> None:
-        """Append the runs' lines to :attr:`run_log` (one write, then fsync)."""
-        if self.run_log is None:
-            return
-        text = "".join(f"{i} {r}\n" for i, r in zip(index, run_ids, strict=True) if r)
-        fd = os.open(self.run_log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644)
-        try:
-            os.write(fd, text.encode("ascii"))
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-    def worker_writes(self) -> bool:
-        if self.mode != "auto":
-            return self.mode == "yes"
-        if self.probe is None:
-            return False
-        try:
-            return Path(self.probe).read_text() == self.token
-        except OSError:
-            return False
 
 
 @dataclass(frozen=True)
@@ -206,10 +164,6 @@ _ARCHIVES: dict[str, Archive] = {}
 def _fast(ctx: JobContext) -> FastSweep:
     fast = _FAST.get(ctx.key)
     if fast is None:
-        from bowlrec.spec import Scene
-
-        from .fastprep import FastSweep
-
         assert ctx.fast_paths is not None
         if len(_FAST) > 8:
             _FAST.clear()
@@ -220,31 +174,8 @@ def _fast(ctx: JobContext) -> FastSweep:
 def _archive(root: str) -> Archive:
     archive = _ARCHIVES.get(root)
     if archive is None:
-        from bowlrec.archive import Archive
-
         archive = _ARCHIVES[root] = Archive(root, create=False)
     return archive
-
-
-# -- preparation ----------------------------------------------------------------------------------
-
-
-def prepare_point(ctx: JobContext, point: Point) -> PreparedRun:
-    """Validate, convert (bowler scenes), resolve and hash one run of the job (the general
-    path; see :func:`bowlrec.batch.job.prepare_point_data`)."""
-    from .job import point_data, prepare_one
-
-    try:
-        params, bowler, data, ref = point_data(ctx, point)
-    except ValueError as err:  # JobError: an entry that cannot be read
-        return _prepared_error(point, str(err))
-    return prepare_one(point.index, params, bowler, data, ref)
-
-
-def _prepared_error(point: Point, error: str) -> PreparedRun:
-    from .job import PreparedRun
-
-    return PreparedRun(point.index, dict(point.overrides), error=error)
 
 
 # -- the chunk ------------------------------------------------------------------------------------
@@ -305,16 +236,6 @@ def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
 def _events(result: Any, i: int) -> list[tuple[str, float, str, float, float, float]] | None:
     """Run ``i``'s events from the batch output (None when it had more than the batch keeps)."""
     from bowlrec.core.batch import B_EVENTS, EVENT_CAP
-    from bowlrec.core.codes import (
-        EV_KIND,
-        EV_MU,
-        EV_PHASE,
-        EV_T,
-        EV_X,
-        EV_Y,
-        EVENT_KINDS,
-        PHASE_NAMES,
-    )
 
     n = int(result.out[i, B_EVENTS])
     if n > EVENT_CAP:
@@ -367,7 +288,6 @@ class _Store:
         """Seal the records held as one segment and let them go. After a failed write they
         are only let go: the chunk's runs not sealed become failed rows
         (:func:`_fail_unwritten`)."""
-        from bowlrec.errors import ArchiveWriteError
 
         assert self.archive is not None and self.target is not None
         records, self.records, self.held = self.records, [], 0
@@ -466,11 +386,7 @@ def _store_fast(
     ok: np.ndarray,
 ) -> None:
     """Store the chunk's successful runs ``rows`` (kernel rows where ``ok``) as one segment."""
-    from bowlrec.archive import SummaryRuns
-    from bowlrec.archive.balls import ball_sha
-    from bowlrec.archive.store import pattern_label
     from bowlrec.core.batch import B_EVENTS, EVENT_CAP
-    from bowlrec.errors import ArchiveWriteError
 
     assert task.target is not None
     start = time.perf_counter()
@@ -615,7 +531,6 @@ def _settle_row(table: ChunkTable, i: int, summary: Summary) -> bool:
 
 
 def _summary_only(plan: Plan | None) -> bool:
-    from bowlrec.core.codes import RECORD_SUMMARY
 
     return plan is not None and plan.record_mode == RECORD_SUMMARY
 
@@ -630,11 +545,6 @@ def _record(
     trajectory: Any = None,
 ) -> RunRecord:
     """A general-path run as a segment record."""
-    from bowlrec.archive import RunRecord
-    from bowlrec.archive.balls import ball_sha
-    from bowlrec.archive.store import pattern_label
-    from bowlrec.core.trajectory import Event, summary_trajectory
-    from bowlrec.sinks.common import RunData
 
     assert prep.scene is not None and prep.plan is not None and prep.run_id is not None
     sha = ball_sha(prep.scene.ball)
@@ -720,8 +630,6 @@ def _general_recorded(
 def _replays(ctx: JobContext, prep: PreparedRun, traj: Any, result: ChunkResult) -> None:
     if not ctx.formats or ctx.replay_dir is None:
         return
-    from bowlrec.sinks.common import RunData
-    from bowlrec.sinks.registry import sink_named
 
     assert prep.scene is not None and prep.plan is not None
     run = RunData(prep.scene, prep.plan, traj, prep.run_id)

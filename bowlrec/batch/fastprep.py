@@ -29,6 +29,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pydantic_core
 
+from bowlrec import PHYSICS_VERSION
+from bowlrec.archive.run_id import RUN_ID_LENGTH, canonical_plan
+from bowlrec.batch.paths import apply_override
+
 if TYPE_CHECKING:
     from bowlrec.core.batch import PackedPlans
     from bowlrec.core.plan import Plan
@@ -104,10 +108,7 @@ class FastSweep:
     """Fast preparation of a physical base scene's delivery sweep (see the module docs)."""
 
     def __init__(self, base_scene: Scene, paths: Sequence[str]) -> None:
-        from bowlrec.archive.run_id import canonical_plan
         from bowlrec.core.batch import pack_plans
-
-        from .job import apply_override
 
         self.paths = list(paths)
         self.scene = base_scene
@@ -121,7 +122,6 @@ class FastSweep:
         canon = canonical_plan(self.plan)
         canon["velocity0_mps"]["data"] = [_MARK.format(0), _MARK.format(1)]
         canon["omega0_radps"]["data"] = [_MARK.format(k) for k in (2, 3, 4)]
-        from bowlrec import PHYSICS_VERSION
 
         payload = json.dumps(
             {"physics_version": PHYSICS_VERSION, "plan": canon},
@@ -148,7 +148,6 @@ class FastSweep:
     def _run_id(self, values: list[float]) -> str:
         """SHA-256 of the canonical Plan (:func:`bowlrec.archive.run_id.run_id`) whose five
         varying numbers are ``values`` (velocity x, y, spin x, y, z)."""
-        from bowlrec.archive.run_id import RUN_ID_LENGTH
 
         h = self._id_prefix.copy()
         for piece, k in zip(self._id_rest, self._id_order, strict=True):

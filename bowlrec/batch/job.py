@@ -27,7 +27,7 @@ import copy
 import functools
 import json
 import math
-import re
+import uuid
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,8 +36,18 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
+from bowlrec.archive import run_id
+from bowlrec.batch.context import JobContext
+from bowlrec.batch.fastprep import FastSweep
+from bowlrec.batch.paths import apply_override, parse_path, path_label
+from bowlrec.bowling.scene import BowlerScene
 from bowlrec.errors import JobError, SceneInputError
+from bowlrec.scene_input import is_bowler, parse_scene, prefix_lines, with_library_ball
+from bowlrec.scene_input import library_lookup as scene_lookup
+from bowlrec.sinks.registry import sink_named
+from bowlrec.spec import Scene, format_validation_error
 from bowlrec.spec._base import spec_error
+from bowlrec.spec.loading import read_mapping
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
@@ -45,7 +55,6 @@ if TYPE_CHECKING:
     from bowlrec.scene_input import BallLookup
     from bowlrec.spec import Scene
 
-    from .chunks import JobContext
 
 __all__ = [
     "JOB_FORMAT",
@@ -62,13 +71,12 @@ __all__ = [
     "ScenesSweep",
     "Sweep",
     "ZipSweep",
-    "apply_override",
     "freeze_balls",
     "job_schema_text",
     "latin_hypercube",
     "load_job",
     "library_lookup",
-    "parse_path",
+    "prepare_point",
     "job_context",
     "point_data",
     "prepare_one",
@@ -82,8 +90,6 @@ MAX_JOB_RUNS = 10_000_000
 #: most values (points x axes) of one Latin hypercube: its strata are permutations of all n
 #: points, so the (n, axes) unit array is held whole in every process (8 bytes per value)
 MAX_HYPERCUBE_VALUES = 20_000_000
-
-PathKey = str | int
 
 
 class _JobModel(BaseModel):
@@ -312,7 +318,6 @@ class JobSpec(_JobModel):
 
     @model_validator(mode="after")
     def _formats_need_samples(self) -> JobSpec:
-        from bowlrec.sinks.registry import sink_named
 
         if self.record == "summary" and any(sink_named(f).needs_samples for f in self.formats):
             raise ValueError(
@@ -439,76 +444,8 @@ def latin_hypercube(n: int, d: int, seed: int) -> np.ndarray:
     return np.asarray((strata + rng.random((n, d))) / n)
 
 
-# -- paths ------------------------------------------------------------------------------------
-
-_PATH = re.compile(r"[A-Za-z_]\w*(?:\.[A-Za-z_]\w*|\[\d+\])*")
-_KEY = re.compile(r"([A-Za-z_]\w*)|\[(\d+)\]")
-
-
-def parse_path(path: str) -> tuple[PathKey, ...]:
-    """``"delivery.omega_radps[1]"`` -> ``("delivery", "omega_radps", 1)``."""
-    if not _PATH.fullmatch(path):
-        raise JobError(
-            f"path {path!r} is not a field path: write field names separated by dots and vector "
-            "elements as [i], e.g. 'delivery.speed_mps' or 'delivery.omega_radps[1]'"
-        )
-    return tuple(
-        m.group(1) if m.group(1) is not None else int(m.group(2)) for m in _KEY.finditer(path)
-    )
-
-
-def _label(keys: Sequence[PathKey]) -> str:
-    out = ""
-    for k in keys:
-        out += f"[{k}]" if isinstance(k, int) else (f".{k}" if out else k)
-    return out
-
-
-def apply_override(data: dict[str, Any], path: str, value: Any) -> None:
-    """Set ``path`` in the full scene mapping ``data`` (in place); JobError if it does not
-    address an existing field (the message lists the fields or the vector length)."""
-    keys = parse_path(path)
-    node: Any = data
-    for depth, key in enumerate(keys):
-        where = _label(keys[:depth]) or "the scene"
-        last = depth == len(keys) - 1
-        if isinstance(key, str):
-            if not isinstance(node, dict):
-                kind = "null" if node is None else type(node).__name__
-                raise JobError(
-                    f"path {path!r}: {where} is {kind} in the base scene, it has no field "
-                    f"{key!r} (set {where} in the base scene, or sweep it whole)"
-                )
-            if key not in node:
-                raise JobError(
-                    f"path {path!r}: {where} has no field {key!r}; fields: {', '.join(node)}"
-                )
-        else:
-            if not isinstance(node, list):
-                kind = "null" if node is None else type(node).__name__
-                raise JobError(
-                    f"path {path!r}: {where} is {kind} in the base scene, not a vector; "
-                    f"[{key}] needs a vector (set {where} in the base scene, or sweep it whole)"
-                )
-            if key >= len(node):
-                raise JobError(
-                    f"path {path!r}: {where} has {len(node)} elements, index {key} is out of "
-                    f"range (0..{len(node) - 1})"
-                )
-        if last:
-            node[key] = value
-        else:
-            node = node[key]
-
-
-# -- loading ------------------------------------------------------------------------------------
-
-
 def load_job(path: str | Path) -> JobSpec:
     """Read and validate a job file (.json, .yaml, .yml); JobError with field-named messages."""
-    from bowlrec.scene_input import prefix_lines
-    from bowlrec.spec import format_validation_error
-    from bowlrec.spec.loading import read_mapping
 
     p = Path(path)
     try:
@@ -531,7 +468,6 @@ def job_schema_text() -> str:
 def library_lookup(balls: BallLibrary | None) -> BallLookup:
     """A :data:`~bowlrec.scene_input.BallLookup` over an archive's ball library that raises
     JobError (a job naming a ball that does not exist is wrong as a whole)."""
-    from bowlrec.scene_input import library_lookup as scene_lookup
 
     inner = scene_lookup(balls)
 
@@ -571,16 +507,12 @@ class _Base:
 
 def _model(bowler: bool) -> type[BaseModel]:
     if bowler:
-        from bowlrec.bowling.scene import BowlerScene
-
         return BowlerScene
-    from bowlrec.spec import Scene
 
     return Scene
 
 
 def _read_scene_mapping(entry: str | dict[str, Any], base_dir: Path, what: str) -> dict[str, Any]:
-    from bowlrec.spec.loading import read_mapping
 
     if isinstance(entry, dict):
         return copy.deepcopy(entry)
@@ -596,8 +528,6 @@ def _read_scene_mapping(entry: str | dict[str, Any], base_dir: Path, what: str) 
 
 def _full_mapping(raw: dict[str, Any], what: str) -> tuple[bool, dict[str, Any]]:
     """Validate a scene mapping and return (bowler?, every field as JSON values)."""
-    from bowlrec.scene_input import is_bowler, prefix_lines
-    from bowlrec.spec import format_validation_error
 
     bowler = is_bowler(raw)
     try:
@@ -618,9 +548,8 @@ def _base(job: JobSpec, base_dir: Path, lookup: BallLookup) -> _Base:
 
 def _own_errors(err: ValidationError, path: str) -> list[str]:
     """The lines of the message that concern ``path`` itself (or a field below it)."""
-    from bowlrec.spec import format_validation_error
 
-    label = _label(parse_path(path))
+    label = path_label(parse_path(path))
     return [
         line
         for line in format_validation_error(err).splitlines()
@@ -661,7 +590,6 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
 def _library_ball(data: dict[str, Any], lookup: BallLookup) -> tuple[dict[str, Any], str | None]:
     """The mapping with a library reference at ``ball`` replaced by its spec (a physical ball
     in a physical scene, a spec sheet in a bowler scene) and the reference used."""
-    from bowlrec.scene_input import with_library_ball
 
     try:
         return with_library_ball(data, lookup)
@@ -682,8 +610,6 @@ def prepare_one(
 ) -> PreparedRun:
     """Validate, convert (bowler scenes: :func:`bowlrec.scene_input.parse_scene`), resolve and
     hash one scene mapping (its library ball already substituted)."""
-    from bowlrec.archive import run_id
-    from bowlrec.scene_input import parse_scene
 
     try:
         scene = parse_scene(data).scene
@@ -731,10 +657,6 @@ def job_context(
     its own, an unknown library ball); nothing is expanded. ``balls``: the archive's ball
     library for ``name@version`` references; ``ball_refs``: ball-spec SHA-256 -> library
     reference, for runs whose ball equals a library spec."""
-    import uuid
-
-    from .chunks import JobContext
-    from .fastprep import FastSweep
 
     root = Path(base_dir)
     lookup = library_lookup(balls)
@@ -808,8 +730,6 @@ def point_data(
 ) -> tuple[dict[str, Any], bool, dict[str, Any], str | None]:
     """(table parameters, bowler?, full scene mapping, library ball used) of one run."""
 
-    from bowlrec.scene_input import is_bowler
-
     def lookup(ref: str) -> tuple[dict[str, Any], str]:
         try:
             spec, used = ctx.balls[ref]
@@ -840,6 +760,16 @@ def point_data(
     return params, bowler, data, ref
 
 
+def prepare_point(ctx: JobContext, point: Point) -> PreparedRun:
+    """Validate, convert (bowler scenes), resolve and hash one run of the job (the general
+    path; :class:`~bowlrec.batch.fastprep.FastSweep` is the fast one)."""
+    try:
+        params, bowler, data, ref = point_data(ctx, point)
+    except ValueError as err:  # JobError: an entry that cannot be read
+        return PreparedRun(point.index, dict(point.overrides), error=str(err))
+    return prepare_one(point.index, params, bowler, data, ref)
+
+
 def prepare_runs(
     job: JobSpec,
     *,
@@ -855,7 +785,6 @@ def prepare_runs(
     job file's directory); ``balls``: the archive's ball library for ``name@version``
     references.
     """
-    from .chunks import prepare_point
 
     ctx = job_context(job, base_dir=base_dir, balls=balls)
     return [prepare_point(ctx, point) for point in job.points()]

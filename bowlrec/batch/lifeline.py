@@ -28,11 +28,14 @@ So here:
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import os
 import select
+import signal
 import sys
 import threading
 import time
+from multiprocessing.reduction import DupFd
 from typing import Any
 
 __all__ = ["Lifeline", "bind_worker", "guard_fork_server", "lifeline"]
@@ -64,7 +67,6 @@ class Lifeline:
         self.pid = pid
 
     def __reduce__(self) -> tuple[Any, ...]:
-        from multiprocessing.reduction import DupFd
 
         return _rebuild, (DupFd(self.fd), self.pid)
 
@@ -128,8 +130,6 @@ def _libc_prctl() -> Any:
     if not sys.platform.startswith("linux"):
         return None
     try:
-        import ctypes
-
         return ctypes.CDLL(None, use_errno=True).prctl
     except (OSError, AttributeError):
         return None
@@ -137,7 +137,6 @@ def _libc_prctl() -> Any:
 
 def _set_pdeathsig() -> bool:
     """Ask the kernel to SIGKILL this process when its parent exits (Linux only)."""
-    import signal
 
     prctl = _prctl or _libc_prctl()
     return prctl is not None and prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0

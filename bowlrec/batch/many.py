@@ -9,6 +9,10 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel
 
+from bowlrec.archive import Archive
+from bowlrec.batch.job import JobSpec, load_job
+from bowlrec.batch.runner import run_job
+from bowlrec.batch.table import to_arrow, to_numpy
 from bowlrec.errors import MissingExtraError
 
 if TYPE_CHECKING:
@@ -21,7 +25,6 @@ __all__ = ["simulate_many"]
 
 
 def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
-    from .job import JobSpec, load_job
 
     if isinstance(scenes_or_job, JobSpec):
         return scenes_or_job, Path(".")
@@ -78,8 +81,6 @@ def simulate_many(
     >>> table = simulate_many("examples/jobs/speed-rev-grid.json", workers=2)  # doctest: +SKIP
     >>> table.column("hook_m")  # doctest: +SKIP
     """
-    from .runner import run_job
-    from .table import to_arrow, to_numpy
 
     if output not in ("arrow", "numpy"):
         raise ValueError(f"output = {output!r} must be 'arrow' or 'numpy'")
@@ -95,8 +96,6 @@ def simulate_many(
     job, base_dir = _as_job(scenes_or_job)
     store = None
     if archive is not None:
-        from bowlrec.archive import Archive
-
         store = archive if isinstance(archive, Archive) else Archive(archive)
     result = run_job(
         job,

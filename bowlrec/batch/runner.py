@@ -23,19 +23,25 @@ from __future__ import annotations
 
 import contextlib
 import math
+import multiprocessing
 import os
 import signal
 import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from concurrent.futures import FIRST_COMPLETED, Executor, Future, wait
+from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.errors import MissingExtraError
+import numpy as np
+
+from bowlrec.batch.job import PointsSweep, ScenesSweep
+from bowlrec.batch.table import BatchResult
+from bowlrec.errors import ArchiveWriteError, MissingExtraError
 
 from .chunks import (
     FAILED_OUTCOMES,
@@ -54,13 +60,12 @@ from .lifeline import Lifeline, bind_worker, lifeline
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
 
-    from .chunks import JobContext
+    from .context import JobContext
 
 __all__ = [
     "FAILED_OUTCOMES",
     "METRIC_COLUMNS",
     "BatchProgress",
-    "BatchResult",
     "InlineExecutor",
     "run_job",
 ]
@@ -68,10 +73,6 @@ __all__ = [
 #: runs per chunk at most: summary-only and recorded jobs
 SUMMARY_CHUNK = 4096
 RECORDED_CHUNK = 32
-
-#: row statuses: simulated and added now / found in the archive / not run (see error) /
-#: not reached before cancellation
-STATUSES = ("ok", "archived", "failed", "cancelled")
 
 
 def _worker_init(line: Lifeline | None = None) -> None:
@@ -106,47 +107,6 @@ class BatchProgress:
         """Estimated seconds to finish (None before the first simulated run)."""
         rate = self.rate_per_s
         return (self.total - self.done) / rate if rate > 0 else None
-
-
-@dataclass
-class BatchResult:
-    """What a batch did: its table (one row per run, job order) and totals.
-
-    tables: the table's chunks in job order (empty when they went to a ``sink``; see
-    :mod:`bowlrec.batch.table` for the columns); param_columns: the parameter column names in
-    order; counts: rows per status (ok | archived | failed | cancelled); not_reached: runs after
-    the last row, when the batch stopped early (they have no rows); simulated: runs
-    simulated now; simulate_s: summed kernel time in the workers (s); write_s: time spent
-    sealing and registering segments (s, workers and this process); elapsed_s: wall time (s).
-    """
-
-    param_columns: list[str]
-    tables: list[ChunkTable] = field(default_factory=list)
-    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STATUSES, 0))
-    simulated: int = 0
-    cancelled: bool = False
-    elapsed_s: float = 0.0
-    simulate_s: float = 0.0
-    write_s: float = 0.0
-    replays: list[Path] = field(default_factory=list)
-    #: runs after the table's last row that were never reached (a cancelled or failed batch)
-    not_reached: int = 0
-    #: why the batch stopped early when writing failed (e.g. a full disk); None otherwise
-    error: str | None = None
-
-    def count(self, status: str) -> int:
-        return self.counts[status]
-
-    @property
-    def n_rows(self) -> int:
-        return sum(self.counts.values())
-
-    @property
-    def rows(self) -> list[dict[str, Any]]:
-        """The table as one dict per row (None for absent values); built on each access."""
-        from .table import table_rows
-
-        return table_rows(self)
 
 
 ProgressCallback = Callable[[BatchProgress], None]
@@ -185,7 +145,6 @@ class _Workers:
 
     def lost(self, fut: Future[Any]) -> bool:
         """True when the future failed because its restartable pool broke (a worker died)."""
-        from concurrent.futures.process import BrokenProcessPool
 
         if self._make is None or not fut.done() or fut.cancelled():
             return False
@@ -243,8 +202,6 @@ def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
     if workers == 0:
         yield _Workers(InlineExecutor(), 1)
         return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
 
     n = workers or os.cpu_count() or 1
     ctx = multiprocessing.get_context("forkserver")
@@ -274,7 +231,6 @@ TableSink = Callable[[ChunkTable], None]
 def param_columns(job: JobSpec) -> list[str]:
     """The table's parameter columns: the swept paths in order (``scene`` for a scenes
     block)."""
-    from .job import PointsSweep, ScenesSweep
 
     cols: dict[str, None] = {}
     for block in job.blocks():
@@ -295,7 +251,6 @@ def _default_chunk(job: JobSpec, total: int, parallel: int) -> int:
 
 def _unrun(ctx: JobContext, start: int, stop: int, status: str, error: str | None) -> ChunkTable:
     """Rows for runs ``start`` to ``stop`` that were not run (cancelled or failed)."""
-    import numpy as np
 
     if ctx.fast_paths is not None:  # numeric sweeps: columns, no object per run
         index = np.arange(start, min(stop, ctx.job.count()), dtype=np.int64)
@@ -383,7 +338,6 @@ class _Orchestrator:
 
     def take(self, res: ChunkResult) -> None:
         """A finished chunk: store what the worker could not, register what it sealed."""
-        from bowlrec.errors import ArchiveWriteError
 
         r = self.result
         r.simulated += res.simulated
@@ -402,8 +356,6 @@ class _Orchestrator:
                     res.segments += [] if shipped is None else [shipped]
                     _mark_present(res.table, self._present)
                 if res.segments:
-                    from dataclasses import replace
-
                     # the worker may see the archive under another path (a Dask worker)
                     self.archive.register(
                         [
@@ -489,7 +441,6 @@ def run_job(
     ``durable`` fsyncs every sealed segment. Raises JobError for an invalid job before anything
     runs.
     """
-    from bowlrec.errors import ArchiveWriteError
 
     start = time.perf_counter()
     ctx = job_context(

@@ -17,15 +17,19 @@ flat memory. Each file is written under a temporary name and renamed when comple
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 from collections.abc import Iterable, Sequence
 from contextlib import ExitStack
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from bowlrec.atomic_files import atomic_path
+from bowlrec.batch.job import GridSweep, Linspace, PointsSweep, ScenesSweep, ZipSweep
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS
 from bowlrec.errors import MissingExtraError
 
@@ -35,10 +39,11 @@ if TYPE_CHECKING:
     import pyarrow as pa
 
     from .job import JobSpec
-    from .runner import BatchResult
 
 __all__ = [
+    "STATUSES",
     "TABLE_SUFFIXES",
+    "BatchResult",
     "TableWriter",
     "param_types",
     "table_columns",
@@ -51,6 +56,51 @@ __all__ = [
 #: file types a table is written as, by suffix
 TABLE_SUFFIXES = (".csv", ".parquet", ".json", ".jsonl")
 _TEXT = ("run_id", "status", "error")
+
+
+#: row statuses: simulated and added now / found in the archive / not run (see error) /
+#: not reached before cancellation
+STATUSES = ("ok", "archived", "failed", "cancelled")
+
+
+@dataclass
+class BatchResult:
+    """What a batch did: its table (one row per run, job order) and totals.
+
+    tables: the table's chunks in job order (empty when they went to a ``sink``; see
+    :mod:`bowlrec.batch.table` for the columns); param_columns: the parameter column names in
+    order; counts: rows per status (ok | archived | failed | cancelled); not_reached: runs after
+    the last row, when the batch stopped early (they have no rows); simulated: runs
+    simulated now; simulate_s: summed kernel time in the workers (s); write_s: time spent
+    sealing and registering segments (s, workers and this process); elapsed_s: wall time (s).
+    """
+
+    param_columns: list[str]
+    tables: list[ChunkTable] = field(default_factory=list)
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(STATUSES, 0))
+    simulated: int = 0
+    cancelled: bool = False
+    elapsed_s: float = 0.0
+    simulate_s: float = 0.0
+    write_s: float = 0.0
+    replays: list[Path] = field(default_factory=list)
+    #: runs after the table's last row that were never reached (a cancelled or failed batch)
+    not_reached: int = 0
+    #: why the batch stopped early when writing failed (e.g. a full disk); None otherwise
+    error: str | None = None
+
+    def count(self, status: str) -> int:
+        return self.counts[status]
+
+    @property
+    def n_rows(self) -> int:
+        return sum(self.counts.values())
+
+    @property
+    def rows(self) -> list[dict[str, Any]]:
+        """The table as one dict per row (None for absent values); built on each access."""
+
+        return table_rows(self)
 
 
 def table_columns(param_columns: Sequence[str]) -> list[str]:
@@ -72,7 +122,6 @@ def _kind(values: Iterable[Any]) -> str:
 def param_types(job: JobSpec, columns: Sequence[str]) -> dict[str, str]:
     """Each parameter column's type (bool, int64, float64 or string), from the values the
     job lists (ranges and linspaces are float64), so every chunk has the same schema."""
-    from .job import GridSweep, Linspace, PointsSweep, ScenesSweep, ZipSweep
 
     seen: dict[str, list[Any]] = {c: [] for c in columns}
     for block in job.blocks():
@@ -242,7 +291,6 @@ class TableWriter:
     def __init__(
         self, paths: Sequence[Path], param_columns: Sequence[str], types: dict[str, str]
     ) -> None:
-        from bowlrec.atomic_files import atomic_path
 
         self.paths = [Path(p) for p in paths]
         self.params = list(param_columns)
@@ -303,8 +351,6 @@ class TableWriter:
         fh = open(tmp, "w", newline="", encoding="utf-8")  # noqa: SIM115 (closed in close())
         self._stack.callback(fh.close)
         if suffix == ".csv":
-            import csv
-
             writer = csv.DictWriter(fh, fieldnames=self.columns)
             writer.writeheader()
             return (fh, writer)
@@ -341,7 +387,6 @@ class TableWriter:
 
 
 def _chunk_rows(table: ChunkTable, params: Sequence[str]) -> list[dict[str, Any]]:
-    from .runner import BatchResult
 
     result = BatchResult(list(params), [table])
     return table_rows(result)

@@ -6,18 +6,17 @@ workers with it (:mod:`bowlrec.batch.lifeline`)."""
 
 from __future__ import annotations
 
+from bowlrec.core.batch import pack_plans, run_batch
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.core.solver import solve
+from bowlrec.spec import Scene
+
 from .lifeline import guard_fork_server
 
 guard_fork_server()
 
 
 def _warm() -> None:
-    from bowlrec.core.batch import pack_plans, run_batch
-    from bowlrec.core.codes import RECORD_SUMMARY
-    from bowlrec.core.solver import solve
-    from bowlrec.spec import Scene
-
-    from . import chunks  # noqa: F401  (the worker's module)
 
     plan = Scene.model_validate({"options": {"record": "summary"}}).resolve()
     assert plan.record_mode == RECORD_SUMMARY

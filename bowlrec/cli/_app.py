@@ -7,6 +7,8 @@ from typing import Any
 import typer
 from typer.core import TyperGroup
 
+from bowlrec.cli._common import exit_for
+
 
 class _Commands(TyperGroup):
     """The command group: an error raised by any command (sub-commands included) goes through
@@ -16,8 +18,6 @@ class _Commands(TyperGroup):
         try:
             return super().invoke(ctx)
         except Exception as err:
-            from ._common import exit_for
-
             exit_for(err)
             raise
 

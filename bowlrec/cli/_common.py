@@ -8,6 +8,7 @@ exits with its category's code in :data:`EXIT_CODES`.
 from __future__ import annotations
 
 import os
+import sqlite3
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -16,6 +17,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
+from bowlrec.archive import Archive, default_archive_path
 from bowlrec.errors import (
     BowlrecError,
     BusyError,
@@ -26,6 +28,7 @@ from bowlrec.errors import (
     StorageError,
     UnavailableError,
 )
+from bowlrec.scene_input import parse_scene_file
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -104,7 +107,6 @@ def parse_scene_or_exit(path: Path) -> Any:
     """The file's scene parsed by :func:`bowlrec.scene_input.parse_scene_file` (library
     references are resolved by the caller); exits when the file is missing, and raises
     :class:`~bowlrec.errors.SceneInputError` with the field-named message when it is invalid."""
-    from bowlrec.scene_input import parse_scene_file
 
     if not path.exists():
         fail(f"{path}: no such file")
@@ -115,7 +117,6 @@ def open_archive(path: Path | None, *, create: bool = True) -> Archive:
     """The archive at ``path`` or the configured default; exits with a clear error when the
     directory cannot be opened (:class:`~bowlrec.errors.ArchiveError` when it is not an
     archive)."""
-    from bowlrec.archive import Archive, default_archive_path
 
     if path is None:
         path, _source = default_archive_path()
@@ -141,7 +142,6 @@ def archive_errors() -> Iterator[None]:
 
 
 def _exit_for_builtin(err: Exception) -> None:
-    import sqlite3
 
     if isinstance(err, ValueError):  # a value the writer refused, e.g. a plot's exaggeration
         from pydantic import ValidationError

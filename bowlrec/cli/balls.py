@@ -8,6 +8,10 @@ from typing import Annotated, Any
 
 import typer
 
+from bowlrec.archive import parse_ball_ref
+from bowlrec.archive.balls import parse_ball
+from bowlrec.errors import SpecFileError
+
 from ._app import app
 from ._common import ArchiveOption, JsonOption, archive_errors, fail
 from ._common import open_archive as _open
@@ -19,8 +23,6 @@ app.add_typer(balls_app, name="balls")
 def _load_ball(path: Path) -> Any:
     """A ball from a file: a physical ball spec, a spec sheet in bowlers' units (it has
     ``weight_lb``), or the ``ball`` of a scene file (physical or bowler-language)."""
-    from bowlrec.archive.balls import parse_ball
-    from bowlrec.errors import SpecFileError
     from bowlrec.spec.loading import read_mapping
 
     if not path.exists():
@@ -104,7 +106,6 @@ def remove(
     archive: ArchiveOption = None,
 ) -> None:
     """Remove one version (runs that used it keep their own copy of the spec)."""
-    from bowlrec.archive import parse_ball_ref
 
     store = _open(archive)
     with archive_errors():

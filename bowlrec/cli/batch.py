@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from bowlrec.archive.location import config_value
+from bowlrec.errors import BowlrecError, JobError
+
 from ._app import app
 from ._common import ArchiveOption, QuietOption, fail, interactive, open_archive
 
@@ -96,7 +99,6 @@ def batch(
     from bowlrec.batch import TableWriter, load_job, run_job, table_paths
     from bowlrec.batch.runner import param_columns
     from bowlrec.batch.table import param_types
-    from bowlrec.errors import BowlrecError, JobError
 
     if not job.exists():
         fail(f"{job}: no such file")
@@ -110,8 +112,6 @@ def batch(
             f"{job}: formats {spec.formats} write replay files of archived runs; drop --no-archive"
         )
     if scheduler is None:
-        from bowlrec.archive.location import config_value
-
         scheduler = config_value("scheduler")
     columns = param_columns(spec)
     try:

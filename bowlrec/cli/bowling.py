@@ -4,6 +4,7 @@ spec sheets of the curated library, with USBC legality), ``bowler-scene`` (a tem
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from pathlib import Path
 from typing import Annotated
 
@@ -19,7 +20,6 @@ def patterns(
     as_json: JsonOption = False,
 ) -> None:
     """Oil-pattern presets with their Kegel-sheet statistics (volume, crosses, ratio)."""
-    from dataclasses import asdict
 
     from bowlrec.bowling.oil import pattern_statistics, preset, preset_names
 

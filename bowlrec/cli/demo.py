@@ -7,6 +7,9 @@ from typing import Annotated, Any
 
 import typer
 
+from bowlrec.errors import MissingExtraError
+from bowlrec.sinks.registry import sink_named
+
 from ._app import app
 from ._common import ArchiveOption, QuietOption, open_archive, with_progress
 
@@ -86,8 +89,6 @@ def demo(
 def _written(name: str, runs: list[Any], path: Path) -> str:
     """The line for ``runs`` written to ``path`` by sink ``name``, or for the sink skipped when
     its optional libraries are not installed."""
-    from bowlrec.errors import MissingExtraError
-    from bowlrec.sinks.registry import sink_named
 
     sink = sink_named(name)
     try:

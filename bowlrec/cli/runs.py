@@ -9,6 +9,11 @@ from typing import Annotated, Any
 
 import typer
 
+import bowlrec
+from bowlrec.archive.migrate import migrate as run_migration
+from bowlrec.cli._common import interactive
+from bowlrec.sinks.registry import sink_for, sink_named
+
 from ._app import app
 from ._common import (
     ArchiveOption,
@@ -181,7 +186,6 @@ def export(
     Several runs go into one .mcap (each under its own topic prefix, lanes side by side) or
     one figure (overlaid).
     """
-    from bowlrec.sinks.registry import sink_for
 
     sink = sink_for(out)
     store = _open(archive, create=False)
@@ -279,9 +283,6 @@ def migrate(
     Run IDs stay the same. The 1.0 files are kept in ARCHIVE/v1-archive/ (delete it once the
     migrated archive looks right); a migration that was interrupted resumes when run again.
     """
-    from bowlrec.archive.migrate import migrate as run_migration
-
-    from ._common import interactive
 
     if interactive(quiet):
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
@@ -363,7 +364,6 @@ def plot(
     ] = None,
 ) -> None:
     """Paper-style figure of one or several runs overlaid (lane, oil, paths, rotation axes)."""
-    from bowlrec.sinks.registry import sink_named
 
     plots = sink_named("plot")
     plot_runs, plot_series = plots.attribute("plot_runs"), plots.attribute("plot_series")
@@ -383,7 +383,6 @@ def plot(
 
 def _simulated(scene: Any) -> Any:
     """A scene file simulated on the spot (sampled at 5 ms if the scene is summary-only)."""
-    import bowlrec
     from bowlrec.sinks import RunData
 
     if scene.options.record == "summary":

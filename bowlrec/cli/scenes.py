@@ -3,10 +3,15 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Any
 
 import typer
+
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.errors import SceneInputError
+from bowlrec.scene_input import ParsedScene, parse_scene
 
 from ._app import app
 from ._common import (
@@ -61,7 +66,6 @@ def simulate(
 
     The run ID is a content hash: simulating the same scene again reuses the stored run.
     """
-    from bowlrec.scene_input import ParsedScene
     from bowlrec.spec import Scene
 
     files = requested_files(out=out, mcap=mcap, rrd=rrd, plot=plot)
@@ -126,8 +130,6 @@ def simulate(
 def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
     """The parsed scene with library ball ``ref`` in place of its ball: a physical ball in a
     physical scene, a spec sheet in a bowler scene (laid out by its layout and PAP)."""
-    from bowlrec.errors import SceneInputError
-    from bowlrec.scene_input import parse_scene
 
     source = parsed.bowler if parsed.bowler is not None else parsed.scene
     data = source.model_dump(mode="json")  # a bowler scene keeps its "format": "bowler"
@@ -159,9 +161,7 @@ def _print_bowler(report: dict[str, Any]) -> None:
 
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
-    from dataclasses import replace
 
-    from bowlrec.core.codes import RECORD_SUMMARY
     from bowlrec.core.solver import solve
 
     plan = scene.resolve()

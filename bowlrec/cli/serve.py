@@ -16,6 +16,7 @@ from typing import Annotated
 
 import typer
 
+from bowlrec.archive.location import config_value
 from bowlrec.errors import MissingExtraError
 from bowlrec.service.names import (
     DEFAULT_MAX_BODY_BYTES,
@@ -129,8 +130,6 @@ def serve(
         allowed.append(host.strip("[]"))  # the literal address the server is reached at
     store = open_archive(archive)
     if scheduler is None:
-        from bowlrec.archive.location import config_value
-
         scheduler = config_value("scheduler")
     application = create_app(  # JobsLockedError when another server runs the archive's jobs
         store.root,

@@ -45,7 +45,9 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from bowlrec.archive import Archive
+import bowlrec
+from bowlrec.archive import Archive, parse_ball_ref
+from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import (
     BallRefError,
     BowlrecError,
@@ -59,6 +61,8 @@ from bowlrec.errors import (
     UnavailableError,
 )
 from bowlrec.sinks.registry import sink_named
+from bowlrec.spec import Scene
+from bowlrec.spec.errors import format_errors
 
 from .body_limit import DEFAULT_MAX_BODY_BYTES, BodyLimitMiddleware
 from .jobs import JobManager
@@ -173,7 +177,6 @@ class _State:
         token: str | None,
         session_ttl_s: float = DEFAULT_SESSION_TTL_S,
     ) -> None:
-        from bowlrec.archive.group_commit import GroupCommitter
 
         self.archive = archive
         self.jobs = jobs
@@ -392,7 +395,6 @@ def add_ball(state: StateDep, body: BallAddRequest, response: Response) -> BallA
 @balls.delete("/{ref}", response_model=BallRemoved)
 def remove_ball(state: StateDep, ref: str) -> BallRemoved:
     """Delete one version, ``name@version`` (runs that used it keep their copy of the spec)."""
-    from bowlrec.archive import parse_ball_ref
 
     name, version = parse_ball_ref(ref)
     if version is None:
@@ -503,7 +505,6 @@ def close_session(state: StateDep, request: Request, response: Response) -> Sess
 def request_error_text(err: RequestValidationError) -> str:
     """One ``where: message`` line per error of a request FastAPI could not parse: ``request
     body`` (not JSON, or not an object), ``query parameter limit``, ``path parameter ...``."""
-    from bowlrec.spec.errors import format_errors
 
     places = {"body": "request body", "query": "query parameter", "path": "path parameter"}
     details = []
@@ -525,8 +526,6 @@ def request_error_text(err: RequestValidationError) -> str:
 
 def _warm_up() -> None:
     """Load the compiled kernels (numba's on-disk cache) before the first request."""
-    import bowlrec
-    from bowlrec.spec import Scene
 
     for delivery in ({}, {"omega_radps": [-16.62, 23.74, 7.765]}):
         bowlrec.simulate(
@@ -560,7 +559,6 @@ def create_app(
     without the bearer token naming another host get 400). ``session_ttl_s``: the lifetime of
     a cookie session. Raises ValueError for an allowed host that is not a host name.
     """
-    import bowlrec
 
     hosts = list(allowed_hosts)
     for entry in hosts:

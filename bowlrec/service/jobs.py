@@ -47,7 +47,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from bowlrec.archive import Archive
 from bowlrec.archive.run_id import RUN_ID_LENGTH
 from bowlrec.atomic_files import atomic_path, remove_stale_parts
-from bowlrec.batch.job import MAX_JOB_RUNS
+from bowlrec.batch import BatchProgress, JobSpec, job_context, run_job
+from bowlrec.batch.job import MAX_JOB_RUNS, ScenesSweep, freeze_balls
 from bowlrec.errors import (
     ArchiveWriteError,
     DamagedError,
@@ -56,6 +57,7 @@ from bowlrec.errors import (
     JobsLockedError,
     SpecError,
 )
+from bowlrec.spec import format_validation_error
 
 if TYPE_CHECKING:
     from bowlrec.batch import ChunkTable, JobSpec
@@ -89,11 +91,6 @@ def parse_job(body: Any) -> JobSpec:
     """A :class:`~bowlrec.batch.JobSpec` from a request body (the ``scenes`` shorthand
     included); :class:`SpecError` with field-named lines when invalid. Scenes must be inline:
     paths would name files on the server."""
-    from pydantic import ValidationError
-
-    from bowlrec.batch import JobSpec
-    from bowlrec.batch.job import ScenesSweep
-    from bowlrec.spec import format_validation_error
 
     if not isinstance(body, dict):
         raise SpecError(f"job: expected a JSON object, got {type(body).__name__}")
@@ -409,8 +406,6 @@ class JobManager:
         """Check a job as a whole (:class:`~bowlrec.errors.SpecError` when it is invalid: a
         :class:`~bowlrec.errors.JobError` for a job wrong as a whole; an invalid combination
         becomes a failure row when it runs), persist it and queue it."""
-        from bowlrec.batch import job_context
-        from bowlrec.batch.job import freeze_balls
 
         job = parse_job(body)
         job = freeze_balls(job, job_context(job, balls=self.archive.balls))
@@ -531,12 +526,10 @@ class JobManager:
 
     def _job(self, job_id: str) -> JobSpec:
         """The job as persisted at submission (library balls frozen)."""
-        from bowlrec.batch import JobSpec
 
         return JobSpec.model_validate(json.loads(self._spec_path(job_id).read_text())["job"])
 
     def _run(self, rec: JobRecord, cancel: threading.Event) -> None:
-        from bowlrec.batch import BatchProgress, run_job
 
         last = [0.0]
         failures: builtins.list[dict[str, Any]] = []

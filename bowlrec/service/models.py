@@ -11,9 +11,11 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from bowlrec.archive.balls import parse_ball
 from bowlrec.core.trajectory import Summary
 from bowlrec.errors import SpecError
-from bowlrec.scene_input import ParsedScene
+from bowlrec.scene_input import ParsedScene, parse_scene
+from bowlrec.spec import format_validation_error
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
@@ -223,15 +225,12 @@ def parse_scene_spec(data: Any, balls: BallLibrary | None = None) -> ParsedScene
     (:func:`bowlrec.scene_input.parse_scene`: a string ``ball`` is a library reference
     resolved through ``balls``). Raises :class:`~bowlrec.errors.SceneInputError` (a
     :class:`~bowlrec.errors.SpecError`) with field-named lines."""
-    from bowlrec.scene_input import parse_scene
 
     return parse_scene(data, balls)
 
 
 def parse_ball_spec(data: Any) -> Any:
     """A physical ball or a bowler spec sheet (``weight_lb``); :class:`SpecError` if invalid."""
-    from bowlrec.archive.balls import parse_ball
-    from bowlrec.spec import format_validation_error
 
     if not isinstance(data, dict):
         raise SpecError(f"spec: expected a JSON object, got {type(data).__name__}")

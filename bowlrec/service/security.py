@@ -25,6 +25,7 @@ import hashlib
 import hmac
 import json
 import secrets
+import shlex
 import threading
 import time
 from collections.abc import Iterable
@@ -233,7 +234,6 @@ def _port_of(host: str) -> str:
 
 def _cli_word(name: str) -> str:
     """``name`` as one shell word (quoted only when needed)."""
-    import shlex
 
     return shlex.quote(name)
 

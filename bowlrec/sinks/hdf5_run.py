@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
+from bowlrec.archive.provenance import environment
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunFileError
@@ -153,7 +154,6 @@ def write_run(run: RunData, path: str | Path) -> Path:
     """Write ``run`` to ``path`` as a run file (the registry's writer); its provenance is the
     run's own (:attr:`RunData.provenance`, for an archived run) or, for a run never archived,
     this process's versions and platform. Returns the final path."""
-    from bowlrec.archive.provenance import environment
 
     attrs = dict(run.provenance) if run.provenance is not None else environment()
     return write_run_file(path, run, attrs)

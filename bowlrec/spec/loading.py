@@ -13,7 +13,11 @@ import json
 from pathlib import Path
 from typing import Any
 
+import yaml
+from yaml.composer import ComposerError
+
 from bowlrec.errors import SpecFileError
+from bowlrec.scene_input import is_bowler
 
 from .scene import Scene
 
@@ -60,7 +64,6 @@ def _parse_json(text: str) -> Any:
 
 
 def _parse_yaml(text: str) -> Any:
-    import yaml
 
     try:
         return yaml.load(text, Loader=_loader_class())  # noqa: S506 - a SafeLoader subclass
@@ -76,8 +79,6 @@ def _parse_yaml(text: str) -> Any:
 @functools.cache
 def _loader_class() -> type:
     """A ``yaml.SafeLoader`` that refuses aliases (built once, on first use)."""
-    import yaml
-    from yaml.composer import ComposerError
 
     class NoAliasLoader(yaml.SafeLoader):
         def compose_node(self, parent: Any, index: Any) -> Any:
@@ -119,7 +120,6 @@ def load_scene(path: str | Path) -> Scene:
     A bowler-language file (top-level ``"format": "bowler"``, see
     :class:`bowlrec.bowling.scene.BowlerScene`) is resolved to the physical scene.
     """
-    from bowlrec.scene_input import is_bowler
 
     try:
         data = read_mapping(path)
