@@ -57,7 +57,7 @@ N_STAGES = 7
 RHS_PER_STEP = 6
 
 
-@njit(cache=True, error_model="numpy", **NO_NRT)
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def stages(y, h, ws, law, run):  # type: ignore[no-untyped-def]
     """Stages 2..7 of one step of size h (s) from y with ``ws.K[0]`` = f(y); the 5th-order
     solution goes to ``ws.ynew``. Returns the minimum normal force and friction margin (per unit
