@@ -80,3 +80,25 @@ def test_pipeline_doc_and_readme_show_the_committed_pipeline_run() -> None:
         assert target["met"] == (target["measured"] >= target["limit"]), target["key"]
         row = next(r for r in table.splitlines() if r.startswith(f"| {target['what']} |"))
         assert row.rstrip(" |").endswith("yes") == target["met"], row
+
+
+def test_core_layout_results_follow_from_their_numbers() -> None:
+    """benchmarks/results/core_layout.md is made from core_layout.json: each ratio is after /
+    before of the medians, each 'met' cell follows from it, and the right-hand-side counts of
+    the two layouts are equal (the same arithmetic)."""
+    doc = json.loads((RESULTS / "core_layout.json").read_text())
+    med, ratio = doc["median"], doc["ratio"]
+    for key, value in ratio.items():
+        assert value == pytest.approx(med["after"][key] / med["before"][key], rel=1e-12)
+    for key in ("n_rhs_rtol_0.0002", "n_rhs_rtol_2e-06"):
+        assert med["after"][key] == med["before"][key]
+    rows = [r for r in (RESULTS / "core_layout.md").read_text().splitlines() if r.startswith("| ")]
+    met = {r.split("|")[1].strip(): r.rstrip(" |").rsplit("|", 1)[1].strip() for r in rows[1:]}
+    limits = {
+        "first compile, fresh process (s)": ("first_compile_s", 1.05),
+        "cold start, cache on disk (s)": ("cold_start_s", 1.05),
+        "kernel, median per delivery, rtol 2e-4 (us)": ("kernel_median_us_rtol_0.0002", 1.03),
+        "kernel, median per delivery, rtol 2e-6 (us)": ("kernel_median_us_rtol_2e-06", 1.03),
+    }
+    for label, (key, limit) in limits.items():
+        assert met[label] == ("yes" if ratio[key] <= limit else "no"), label

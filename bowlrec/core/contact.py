@@ -1,4 +1,5 @@
-"""The horizontal contact impulse that ends a slide exactly (slide -> roll events).
+"""The contact between ball and lane: whether friction holds a ball rolling, the friction law at
+release, and the impulse that ends a slide exactly.
 
 At a located slide -> roll root the slip is zero only to within the tolerance; the residual is
 removed by an impulse at the contact point, which changes v and w as a friction impulse does.
@@ -6,12 +7,42 @@ removed by an impulse at the contact point, which changes v and w as a friction 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-from .codes import S_VX, S_VY, S_WX, S_WY, S_WZ
-from .dynamics import P_R, ball_frame, slip
+from .codes import PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, S_VX, S_VY, S_WX, S_WY, S_WZ
+from .dynamics import P_R, ball_frame, roll_accel, slip
+from .records import FrictionLaw
 from .vec import NO_NRT, cross, solve3
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def rolling_grip(y, par, mu, margin_tol):  # type: ignore[no-untyped-def]
+    """Whether friction mu holds the ball at state y rolling: the friction it needs (per unit
+    mass) is at most mu n + ``margin_tol`` (m/s^2). Returns (holds, ux, uy), (ux, uy) the unit
+    direction of the friction it needs."""
+    r = roll_accel(y, par)
+    fx = r[5]
+    fy = r[6]
+    fn = math.sqrt(fx * fx + fy * fy)
+    return mu * r[7] - fn >= -margin_tol, fx / fn, fy / fn
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def release_law(y, par, mu, margin_tol):  # type: ignore[no-untyped-def]
+    """The friction law at release: sliding along the slip; rolling when there is no slip and
+    friction mu holds the ball (:func:`rolling_grip`); else the slip layer, along the friction
+    the rolling ball needs."""
+    sx, sy = slip(y, par)
+    s0 = math.sqrt(sx * sx + sy * sy)
+    if s0 > 0.0:
+        return FrictionLaw(PHASE_SLIDE, mu, sx / s0, sy / s0)
+    holds, ux, uy = rolling_grip(y, par, mu, margin_tol)
+    if holds:
+        return FrictionLaw(PHASE_ROLL, mu, 1.0, 0.0)
+    return FrictionLaw(PHASE_LAYER, mu, ux, uy)
 
 
 @njit(cache=True, error_model="numpy")

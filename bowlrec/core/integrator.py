@@ -43,14 +43,13 @@ introduces vanishes with s_layer; ``solver.slip_layer`` ties it to the tolerance
 rtol 1e-9, where against s_layer = 1e-8 m/s it moves hook, pocket and slide of cases 5 and 18 by
 <= 4.6e-7 m, 3.2e-5 deg and 3.2e-8 m while taking 11-37x fewer right-hand sides).
 
-
 The parts live in their own modules: the method's tableau, stages, error and dense output in
 :mod:`~bowlrec.core.dopri5`, step-size control in :mod:`~bowlrec.core.step_control`, the event
 functions and root finding in :mod:`~bowlrec.core.events`, the sample and event tables in
-:mod:`~bowlrec.core.recording`, the slide -> roll impulse in :mod:`~bowlrec.core.contact`, and the
-records they pass in :mod:`~bowlrec.core.records`. This module drives them: :func:`advance` takes
-steps under one friction law until something happens, :func:`simulate_kernel` handles what
-happened.
+:mod:`~bowlrec.core.recording`, whether friction holds a rolling ball, the law at release and the
+slide -> roll impulse in :mod:`~bowlrec.core.contact`, and the records they pass in
+:mod:`~bowlrec.core.records`. This module drives them: :func:`advance` takes steps under one
+friction law until something happens, :func:`simulate_kernel` handles what happened.
 """
 
 from __future__ import annotations
@@ -93,7 +92,7 @@ from .codes import (
     STATUS_STALLED,
     STATUS_STOPPED,
 )
-from .contact import remove_slip
+from .contact import release_law, remove_slip, rolling_grip
 from .dopri5 import (
     N_STAGES,
     RHS_PER_STEP,
@@ -103,7 +102,7 @@ from .dopri5 import (
     error_norm,
     stages,
 )
-from .dynamics import P_G, P_QWEIGHT, P_SLAYER, rhs, roll_accel, slaved_direction, slip
+from .dynamics import P_G, P_QWEIGHT, P_SLAYER, rhs, slaved_direction, slip
 from .events import (
     G_CONTACT,
     G_GUTTER_LEFT,
@@ -345,27 +344,8 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     mu = mu_grid[ix, iy]
     cell_bounds(ix, iy, x_edges, y_edges, lane_length, lane_width, ws.bounds)
 
-    # initial phase: rolling if released without slip and the friction suffices
-    sx, sy = slip(y, par)
-    s0 = math.sqrt(sx * sx + sy * sy)
-    phase = PHASE_SLIDE
-    uxr = 1.0
-    uyr = 0.0
-    if s0 > 0.0:
-        uxr = sx / s0
-        uyr = sy / s0
-    else:
-        r = roll_accel(y, par)
-        fx = r[5]
-        fy = r[6]
-        fn = math.sqrt(fx * fx + fy * fy)
-        if mu * r[7] - fn >= -margin_tol:
-            phase = PHASE_ROLL
-        else:
-            phase = PHASE_LAYER
-            uxr = fx / fn
-            uyr = fy / fn
-    law = FrictionLaw(phase, mu, uxr, uyr)
+    law = release_law(y, par, mu, margin_tol)
+    phase, _, uxr, uyr = law
 
     r0 = rhs(y, par, phase, mu, uxr, uyr, orient, K[0])
     nfev = 1
@@ -491,15 +471,12 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
             break
         # a rolling ball that needs more friction than mu n starts to slide
         if phase == PHASE_ROLL:
-            r = roll_accel(y, par)
-            fx = r[5]
-            fy = r[6]
-            fn = math.sqrt(fx * fx + fy * fy)
-            if mu * r[7] - fn < -margin_tol or best_idx == G_RESERVE:
+            holds, fx, fy = rolling_grip(y, par, mu, margin_tol)
+            if not holds or best_idx == G_RESERVE:
                 # the slip restarts from zero along the friction the rolling ball needed
                 phase = PHASE_LAYER
-                uxr = fx / fn
-                uyr = fy / fn
+                uxr = fx
+                uyr = fy
                 kind = EVENT_SLIP_REVERSAL if best_idx == G_SLIP_ZERO else EVENT_ROLL_TO_SLIDE
                 if best_idx == G_SLIP_ZERO:
                     # drop the slide->roll event we just recorded: the ball never rolled

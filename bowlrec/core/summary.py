@@ -21,8 +21,16 @@ import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from .codes import EV_KIND, EV_X, EVENT_SLIDE_TO_ROLL, OUTCOMES, STATUS_AIRBORNE, STATUS_PINS
-from .dynamics import roll_accel, slip
+from .codes import (
+    EV_KIND,
+    EV_X,
+    EVENT_SLIDE_TO_ROLL,
+    OUTCOMES,
+    PHASE_ROLL,
+    STATUS_AIRBORNE,
+    STATUS_PINS,
+)
+from .contact import release_law
 from .trajectory import FLOAT_METRICS, INT_METRICS
 
 __all__ = [
@@ -49,14 +57,9 @@ def first_slide_x(ev, nev):  # type: ignore[no-untyped-def]
 def released_rolling(y0, par, x_edges, y_edges, grid, rtol, g):  # type: ignore[no-untyped-def]
     """True when the kernel starts the run rolling: zero slip at release and friction enough to
     hold it (the integrator's own initial-phase test on the same compiled helpers)."""
-    sx, sy = slip(y0, par)
-    if math.sqrt(sx * sx + sy * sy) > 0.0:
-        return False
     ix = np.searchsorted(x_edges, y0[0], side="right")
     iy = np.searchsorted(y_edges, y0[1], side="right")
-    mu = grid[ix, iy]
-    r = roll_accel(y0, par)
-    return mu * r[7] - math.hypot(r[5], r[6]) >= -rtol * g
+    return release_law(y0, par, grid[ix, iy], rtol * g).phase == PHASE_ROLL
 
 
 def summary_columns(
