@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from .core.plan import Plan
 from .core.trajectory import Trajectory
+from .sinks.outcome import described
 from .spec import Scene, load_scene
 
 
@@ -20,6 +22,12 @@ def as_scene(scene: Scene | dict[str, Any] | str | Path) -> Scene:
 
 def simulate(scene: Scene | dict[str, Any] | str | Path) -> Trajectory:
     """Simulate one delivery from release to its outcome; see :class:`Trajectory`."""
+    return run_plan(as_scene(scene).resolve())
+
+
+def run_plan(plan: Plan, method: str = "auto") -> Trajectory:
+    """Simulate a resolved scene (:func:`bowlrec.core.solver.solve`, ``method`` as there) and
+    tell its outcome in words (the summary's ``message``)."""
     from .core.solver import solve
 
-    return solve(as_scene(scene).resolve())
+    return described(solve(plan, method), plan)

@@ -435,7 +435,8 @@ class Archive:
         found damaged is set aside and the scene simulated again. ``group``: a
         :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs
         together with those of other threads (a server's concurrent requests)."""
-        from bowlrec.core.solver import solve, use_closed_form
+        from bowlrec.api import run_plan
+        from bowlrec.core.solver import use_closed_form
         from bowlrec.sinks.common import RunData
 
         plan = scene.resolve()
@@ -447,7 +448,7 @@ class Archive:
             except RunDamagedError as err:
                 self.set_aside(rid, found[0], f"damaged: {err.reason}")
         start = time.perf_counter()
-        traj = solve(plan, method)
+        traj = run_plan(plan, method)
         wall = time.perf_counter() - start
         used = (
             method

@@ -43,6 +43,7 @@ from bowlrec.core.codes import (
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Event, summary_trajectory
 from bowlrec.errors import ArchiveWriteError
 from bowlrec.sinks.common import RunData
+from bowlrec.sinks.outcome import outcome_message
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import Scene
 
@@ -203,22 +204,16 @@ def _archived_rows(archive: Archive | None, run_ids: Sequence[str]) -> dict[str,
 def _messages(
     summaries: dict[str, np.ndarray], rows: Sequence[int], packed: PackedPlans
 ) -> list[str]:
-    from bowlrec.core.summary import summary_message
-
-    out = []
-    for i in rows:
-        outcome = str(summaries["outcome"][i])
-        out.append(
-            summary_message(
-                outcome,
-                float(summaries["time_s"][i]),
-                float(summaries["x_end_m"][i]),
-                float(packed.lane[i, 2]),
-                int(packed.opts[i, 3]),
-                int(summaries["_status"][i]),
-            )
+    return [
+        outcome_message(
+            str(summaries["outcome"][i]),
+            float(summaries["time_s"][i]),
+            float(summaries["x_end_m"][i]),
+            float(packed.lane[i, 2]),
+            int(packed.opts[i, 3]),
         )
-    return out
+        for i in rows
+    ]
 
 
 def _kernel(packed: PackedPlans) -> tuple[dict[str, np.ndarray], Any, float]:
@@ -589,10 +584,10 @@ def _general_summary(
         events = _events(raw, j)
         traj = None
         if events is None:
-            from bowlrec.core.solver import solve
+            from bowlrec.api import run_plan
 
             assert prep.plan is not None
-            traj = solve(prep.plan)
+            traj = run_plan(prep.plan)
             events = []
         solver = "closed_form" if bool(packed.flags[j, 0]) else "integrator"
         store.add(_record(ctx, prep, summary, events, wall / len(rows), solver, traj))
@@ -607,12 +602,13 @@ def _general_recorded(
     store: _Store,
     result: ChunkResult,
 ) -> None:
-    from bowlrec.core.solver import solve, use_closed_form
+    from bowlrec.api import run_plan
+    from bowlrec.core.solver import use_closed_form
 
     assert prep.plan is not None
     start = time.perf_counter()
     try:
-        traj = solve(prep.plan)
+        traj = run_plan(prep.plan)
     except Exception as err:  # a failing scene is a row, never a crashed batch
         table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
         return

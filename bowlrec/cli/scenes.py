@@ -162,12 +162,12 @@ def _print_bowler(report: dict[str, Any]) -> None:
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
 
-    from bowlrec.core.solver import solve
+    from bowlrec.api import run_plan
 
     plan = scene.resolve()
     if not needs_samples:
         plan = replace(plan, record_mode=RECORD_SUMMARY)  # nothing will read the samples
-    return solve(plan)
+    return run_plan(plan)
 
 
 def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:

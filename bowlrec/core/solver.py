@@ -34,7 +34,7 @@ from .derive import derive_samples
 from .dynamics import pack_params
 from .integrator import simulate_kernel
 from .plan import Plan
-from .summary import first_slide_x, summary_columns, summary_message
+from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
 from .terms import INERTIA_TERMS, TORQUE_TERMS
 from .trajectory import Event, Summary, Trajectory
@@ -262,16 +262,12 @@ def summarize(
         np.array([nfev]),
         np.array([ev.shape[0]]),
     )
-    outcome = str(cols["outcome"][0])
-    message = summary_message(
-        outcome, float(t_end), float(y_end[0]), plan.max_time_s, plan.max_steps, status
-    )
-    return summary_from_columns(cols, 0, message)
+    return summary_from_columns(cols, 0)
 
 
-def summary_from_columns(cols: dict[str, Any], i: int, message: str) -> Summary:
+def summary_from_columns(cols: dict[str, Any], i: int, message: str = "") -> Summary:
     """Row ``i`` of :func:`~bowlrec.core.summary.summary_columns` as a Summary (NaN -> None)
-    with its ``message`` (:func:`~bowlrec.core.summary.summary_message`)."""
+    with ``message`` (the outcome in words: :func:`bowlrec.sinks.outcome.outcome_message`)."""
 
     def opt(name: str) -> float | None:
         v = float(cols[name][i])

@@ -27,7 +27,6 @@ from .codes import (
     EVENT_SLIDE_TO_ROLL,
     OUTCOMES,
     PHASE_ROLL,
-    STATUS_AIRBORNE,
     STATUS_PINS,
 )
 from .contact import release_law
@@ -39,7 +38,6 @@ __all__ = [
     "first_slide_x",
     "released_rolling",
     "summary_columns",
-    "summary_message",
 ]
 
 
@@ -99,32 +97,3 @@ def summary_columns(
         "n_rhs": np.asarray(n_rhs, dtype=np.int64),
         "n_events": np.asarray(n_events, dtype=np.int64),
     }
-
-
-def summary_message(
-    outcome: str, t_end: float, x_end: float, max_time_s: float, max_steps: int, status: int
-) -> str:
-    """The one-line explanation of an outcome (m, s)."""
-    if outcome == "pins":
-        return "reached the pins"
-    if outcome == "gutter":
-        return f"the center crossed a lane edge at x = {x_end:.3f} m"
-    if outcome == "stopped":
-        return f"the ball stopped moving toward the pins at x = {x_end:.3f} m"
-    if outcome == "airborne":
-        if status == STATUS_AIRBORNE and t_end == 0.0:
-            return (
-                "the normal force is not positive at release: the ball would leave the lane "
-                "(omega^2 |offset| exceeds g); the model assumes contact"
-            )
-        return (
-            f"the normal force reached zero at t = {t_end:.4f} s, x = {x_end:.3f} m: the ball "
-            "would leave the lane (omega^2 |offset| exceeds g); the model assumes contact"
-        )
-    if outcome == "max_time":
-        return f"no outcome within max_time_s = {max_time_s} s"
-    if outcome == "max_steps":
-        return f"no outcome within {max_steps} integrator steps"
-    if outcome == "stalled":
-        return "the integrator stalled (step size underflow or endless phase switching)"
-    return outcome

@@ -45,6 +45,9 @@ class Summary:
     velocity; pocket_deg: angle of the velocity to the x axis at the pins (positive toward the
     left); slide_m: x where rolling first starts (the release x for a ball released rolling,
     None if the ball never rolls). hook_m and pocket_deg are None unless the outcome is "pins".
+    message: the outcome in one line of words. The core leaves it empty (it reports codes and
+    numbers); :func:`bowlrec.api.run_plan` and the batch engine fill it
+    (:func:`bowlrec.sinks.outcome.outcome_message`), so every archived or printed run has it.
     """
 
     outcome: str
