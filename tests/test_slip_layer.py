@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bowlrec.core.codes import PHASE_SLIDE, RECORD_SUMMARY
+from bowlrec.core.codes import PHASE_SLIDE, RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT
 from bowlrec.core.dopri5 import dense, dense_coeffs, stages
 from bowlrec.core.dynamics import P_SLAYER, radial_direction, rhs, roll_accel, slip, slip_rate
 from bowlrec.core.events import N_KINEMATIC, kinematic_values, may_cross
@@ -103,7 +103,18 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
         uxr, uyr = s[0] / sn, s[1] / sn
         h = 10 ** rng.uniform(-4, -1.3)
         law = FrictionLaw(PHASE_SLIDE, mu, uxr, uyr)
-        run = RunSettings(par, 1e-6, 0, 0.0, par[P_SLAYER], True, 1e-5, 1e300, 10**9, 0)
+        run = RunSettings(
+            par=par,
+            rtol=1e-6,
+            slide_mode=SLIDE_TO_ROLL_EXACT,
+            slip_threshold=0.0,
+            s_layer=par[P_SLAYER],
+            orient=True,
+            margin_tol=1e-5,
+            max_time=1e300,
+            max_steps=10**9,
+            record_mode=RECORD_SUMMARY,
+        )
         rhs(y, par, PHASE_SLIDE, mu, uxr, uyr, True, K[0])
         stages(y, h, ws, law, run)
         dense_coeffs(y, ynew, K, h, rc)

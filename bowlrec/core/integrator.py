@@ -168,7 +168,17 @@ def _normalize_quaternion(y):  # type: ignore[no-untyped-def]
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _stopped(code, clock, law):  # type: ignore[no-untyped-def]
     """advance()'s report when it stops at a limit before taking a step."""
-    return Advanced(code, clock, law, -1, 1e300, clock.t, clock.h, law.ux, law.uy)
+    return Advanced(
+        code=code,
+        clock=clock,
+        law=law,
+        event=-1,
+        t_event=1e300,
+        t0=clock.t,
+        h0=clock.h,
+        ux_end=law.ux,
+        uy_end=law.uy,
+    )
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT)
@@ -274,9 +284,16 @@ def advance(y, clock, law, run, ws):  # type: ignore[no-untyped-def]
 
         if best_idx >= 0:
             return Advanced(
-                ADV_EVENT, Clock(t, h, lfacold, nsteps, nfev), law, best_idx, best_t, t, h,
-                st[4], st[5],
-            )  # fmt: skip
+                code=ADV_EVENT,
+                clock=Clock(t, h, lfacold, nsteps, nfev),
+                law=law,
+                event=best_idx,
+                t_event=best_t,
+                t0=t,
+                h0=h,
+                ux_end=st[4],
+                uy_end=st[5],
+            )
         # plain accepted step
         t_start = t
         h_acc = h
@@ -290,9 +307,16 @@ def advance(y, clock, law, run, ws):  # type: ignore[no-untyped-def]
         nrej = 0
         if run.record_mode != RECORD_SUMMARY:
             return Advanced(
-                ADV_EVENT, Clock(t, h, lfacold, nsteps, nfev), law, -1, 1e300, t_start, h_acc,
-                st[4], st[5],
-            )  # fmt: skip
+                code=ADV_EVENT,
+                clock=Clock(t, h, lfacold, nsteps, nfev),
+                law=law,
+                event=-1,
+                t_event=1e300,
+                t0=t_start,
+                h0=h_acc,
+                ux_end=st[4],
+                uy_end=st[5],
+            )
 
 
 @njit(cache=True, error_model="numpy")
@@ -324,9 +348,17 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     g = par[P_G]
     s_layer = par[P_SLAYER]
     run = RunSettings(
-        par, rtol, slide_mode, slip_threshold, s_layer, orient, rtol * g, max_time, max_steps,
-        record_mode,
-    )  # fmt: skip
+        par=par,
+        rtol=rtol,
+        slide_mode=slide_mode,
+        slip_threshold=slip_threshold,
+        s_layer=s_layer,
+        orient=orient,
+        margin_tol=rtol * g,
+        max_time=max_time,
+        max_steps=max_steps,
+        record_mode=record_mode,
+    )
     ws = new_workspace()
     K = ws.K
     dtmp = ws.dtmp
