@@ -387,9 +387,11 @@ def check_after_kill(
     before: set[str],
     reported: set[str],
     parts_before: set[Path],
+    max_new_parts: int = 2,
 ) -> set[str]:
     """What a kill left: the index lists only the job's runs, each once, every one readable;
-    nothing listed before is lost and every run reported done is listed. The listed IDs."""
+    nothing listed before is lost and every run reported done is listed; at most
+    ``max_new_parts`` new segment temporaries. The listed IDs."""
     archive = Archive(archive_dir, create=False)  # lists what was registered: no recovery
     try:
         rows = archive.list_runs()
@@ -402,10 +404,10 @@ def check_after_kill(
         _assert_readable(archive, rows, job, None if c.full_load else 25)
     finally:
         archive.close()
-    # a killed writer leaves at most its own temporary: one per process that seals segments
+    # a killed writer leaves at most its own temporary: one per process the kill took down
     # (those of earlier kills may still be there until the next writer removes them)
     new_parts = set(_parts(archive_dir)) - parts_before
-    assert len(new_parts) <= 2, new_parts
+    assert len(new_parts) <= max_new_parts, new_parts
     return now
 
 
@@ -562,7 +564,11 @@ def batch_episode(c: Campaign, kind: str, n_kills: int, dask: DaskCluster | None
         stderr = err.read_text(errors="replace")
         table = _read_table(out)
         reported = _batch_reported(kind, landed, code, table, stderr, expected)
-        listed = check_after_kill(c, archive, ids, listed, reported, parts_before)
+        # each kill takes down both writers of the 2-process pool: the one it hits and, for a
+        # pool worker, the sibling that the broken pool terminates (the batch then carries on
+        # with a new pool, so two kills can land in one batch)
+        max_parts = 2 * max(1, len(landed))
+        listed = check_after_kill(c, archive, ids, listed, reported, parts_before, max_parts)
         for k in landed:
             k.exit_code, k.listed, k.reported = code, len(listed), len(reported)
         c.kills += landed
