@@ -186,7 +186,7 @@ class Channels:
 
 def _selected_channels(request: pytest.FixtureRequest, prefix: str) -> list[str]:
     names = {item.name for item in request.session.items if item.module is request.module}
-    return [ch for ch in RUNNERS if f"{prefix}_{ch}" in names]
+    return [ch for ch in RUNNERS if f"{prefix}[{ch}]" in names]
 
 
 @pytest.fixture(scope="module")
@@ -249,6 +249,7 @@ def report(channel: str, out: dict[str, Any], tmp_path: Path) -> str | None:
 
 
 def check(channel: str, runs: Channels, tmp_path: Path) -> None:
+    assert runs.plan.get(channel), f"no hostile inputs were planned for {channel}"
     out = runs.result(channel)
     message = report(channel, out, tmp_path)
     if message is not None:
@@ -321,44 +322,20 @@ def test_samples_are_stratified() -> None:
 # -- the default run: samples ------------------------------------------------------------------
 
 
-def test_sample_cli(sample_runs: Channels, tmp_path: Path) -> None:
-    """CliRunner in a guarded worker: validate + simulate (scenes), batch -j 0 (jobs)."""
-    check("cli", sample_runs, tmp_path)
-
-
-def test_sample_http(sample_runs: Channels, tmp_path: Path) -> None:
-    """The ASGI app in a guarded worker: POST /runs, POST /jobs (polled), then GET /runs."""
-    check("http", sample_runs, tmp_path)
-
-
-def test_sample_subprocess(sample_runs: Channels, tmp_path: Path) -> None:
-    """Real ``bowlrec`` processes (address space capped) for a small fixed sample."""
-    check("subprocess", sample_runs, tmp_path)
-
-
-def test_sample_server(sample_runs: Channels, tmp_path: Path) -> None:
-    """A real ``bowlrec serve`` on 127.0.0.1 for a small fixed sample."""
-    check("server", sample_runs, tmp_path)
+@pytest.mark.parametrize("channel", ["cli", "http", "subprocess", "server"])
+def test_sample(channel: str, sample_runs: Channels, tmp_path: Path) -> None:
+    """A small fixed sample through each channel: ``cli`` CliRunner in a guarded worker
+    (validate + simulate for scenes, batch -j 0 for jobs); ``http`` the ASGI app in a guarded
+    worker (POST /runs, POST /jobs polled, then GET /runs); ``subprocess`` real ``bowlrec``
+    processes (address space capped); ``server`` a real ``bowlrec serve`` on 127.0.0.1."""
+    check(channel, sample_runs, tmp_path)
 
 
 # -- the full sweep: -m slow -------------------------------------------------------------------
 
 
 @pytest.mark.slow
-def test_full_cli(full_runs: Channels, tmp_path: Path) -> None:
-    check("cli", full_runs, tmp_path)
-
-
-@pytest.mark.slow
-def test_full_http(full_runs: Channels, tmp_path: Path) -> None:
-    check("http", full_runs, tmp_path)
-
-
-@pytest.mark.slow
-def test_full_subprocess(full_runs: Channels, tmp_path: Path) -> None:
-    check("subprocess", full_runs, tmp_path)
-
-
-@pytest.mark.slow
-def test_full_server(full_runs: Channels, tmp_path: Path) -> None:
-    check("server", full_runs, tmp_path)
+@pytest.mark.parametrize("channel", ["cli", "http", "subprocess", "server"])
+def test_full(channel: str, full_runs: Channels, tmp_path: Path) -> None:
+    """Every mutation through each channel (the four of the sample tests above)."""
+    check(channel, full_runs, tmp_path)

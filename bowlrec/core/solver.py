@@ -169,10 +169,11 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
     """Simulate one delivery from release to its outcome (pins, gutter, stop, loss of contact).
 
     ``method`` as in :func:`run_kernel`."""
-    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = run_kernel(plan, method)
+    fn, args = kernel_call(plan, method)
+    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = fn(*args)
+    par, y0, x_edges, y_edges, mu_grid = args[:5]  # the kernel does not change them
     rec = rec[:nrec]
     ev = ev[:nev]
-    par = kernel_params(plan)
     mass = plan.mass_kg
     events = [
         Event(
@@ -185,7 +186,11 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
         )
         for row in ev
     ]
-    summary = summarize(plan, int(status), float(t_end), y_end, ev, int(nsteps), int(nfev))
+    slide_x = float(first_slide_x(ev, nev))
+    rolling = math.isnan(slide_x) and bool(
+        rolling_at_release(y0, par, x_edges, y_edges, mu_grid, float(plan.rtol), plan.g_mps2)
+    )
+    summary = summarize(y0, slide_x, rolling, int(status), float(t_end), y_end, nev, nsteps, nfev)
     normal, friction, slips, energy, alpha, inertia_alpha, torques = derive_samples(
         rec, par, bool(plan.record_terms)
     )
@@ -223,44 +228,31 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
     )
 
 
-def released_rolling(plan: Plan) -> bool:
-    """True when the kernel starts the run rolling: zero slip at release and the friction
-    suffices (the same test as the integrator's initial phase, on the same compiled helpers)."""
-    return bool(
-        rolling_at_release(
-            initial_state(plan),
-            kernel_params(plan),
-            np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
-            np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
-            np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
-            float(plan.rtol),
-            float(plan.g_mps2),
-        )
-    )
-
-
 def summarize(
-    plan: Plan,
+    y0: np.ndarray,
+    slide_x: float,
+    released_rolling: bool,
     status: int,
     t_end: float,
     y_end: np.ndarray,
-    ev: np.ndarray,
+    n_events: int,
     nsteps: int,
     nfev: int,
 ) -> Summary:
-    """Table III metrics from the final state and the event table
-    (:func:`bowlrec.core.summary.summary_columns` for one run)."""
-    slide_x = float(first_slide_x(ev, ev.shape[0]))
+    """Table III metrics from the initial and final states and the event table
+    (:func:`bowlrec.core.summary.summary_columns` for one run); ``released_rolling``: the
+    kernel started the run rolling (:func:`bowlrec.core.summary.released_rolling`); slide_x: x
+    (m) of the first slide -> roll event (NaN: none)."""
     cols = summary_columns(
         np.array([status]),
         np.array([t_end], dtype=np.float64),
         np.asarray(y_end, dtype=np.float64).reshape(1, -1),
-        initial_state(plan).reshape(1, -1),
+        np.asarray(y0, dtype=np.float64).reshape(1, -1),
         np.array([slide_x]),
-        np.array([math.isnan(slide_x) and released_rolling(plan)]),
+        np.array([math.isnan(slide_x) and released_rolling]),
         np.array([nsteps]),
         np.array([nfev]),
-        np.array([ev.shape[0]]),
+        np.array([n_events]),
     )
     return summary_from_columns(cols, 0)
 
