@@ -20,12 +20,17 @@ __version__ = "0.1.0"
 #: a rejection and cuts at the observed order, full orientation weight (gain 1000). Over the
 #: 218 benchmark deliveries results moved by < 7e-8 m at rtol 1e-9 and < 0.15 mm at 1e-6.
 PHYSICS_VERSION = "frohlich2004-dp54-3"
+#: version of the bowlers' layer (spec sheet, layout and PAP, delivery -> physical scene); part
+#: of every run's provenance. 2: the PAP at +omega_hat for a right-hander, the grip facing the
+#: bowler at release. Runs without it (or with 1) placed the PAP at the other end of the axis,
+#: so their layout and side-weight labels describe the mirror-side ball.
+BOWLER_LAYER_VERSION = 2
 
 if TYPE_CHECKING:
     from .api import simulate
     from .batch.many import simulate_many
 
-__all__ = ["PHYSICS_VERSION", "__version__", "simulate", "simulate_many"]
+__all__ = ["BOWLER_LAYER_VERSION", "PHYSICS_VERSION", "__version__", "simulate", "simulate_many"]
 
 
 def __getattr__(name: str) -> Any:

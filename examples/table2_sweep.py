@@ -75,9 +75,9 @@ def sweeps() -> list[dict[str, Any]]:
         weights = StaticWeights(top_oz=0.0, side_oz=oz, finger_oz=0.0)
         return base.model_copy(update={"balance": weights})
 
-    # negative side weight = away from the PAP = the ball's left side at release for a
-    # right-hander (the PAP is on the right)
-    p2 = _sweep("side weight (oz), - = left:", [1.0, 0.0, -1.0], side)
+    # positive side weight = toward the PAP = the ball's left side at release for a
+    # right-hander (the PAP is at +omega, to the left and back)
+    p2 = _sweep("side weight (oz), + = PAP side (left):", [-1.0, 0.0, 1.0], side)
     out.append(
         {
             "claim": "P2: a center of mass on the left side of the ball slides further and "

@@ -161,11 +161,11 @@ def test_explicit_axes_are_orthogonalized() -> None:
 
 
 # --- lane frame ---------------------------------------------------------------------------------
-def test_pap_is_on_the_bowlers_hand_side_of_a_forward_roll() -> None:
+def test_pap_is_at_plus_omega_for_a_right_hander_and_mirrors_for_a_left_hander() -> None:
     """Forward roll (omega along +y, zero slip at v = omega R along +x): a right-hander's PAP is
-    on the ball's right (-y), a left-hander's on its left (+y)."""
-    assert pap_lane_direction(np.array([0.0, 30.0, 0.0]), "right") == pytest.approx([0, -1, 0])
-    assert pap_lane_direction(np.array([0.0, 30.0, 0.0]), "left") == pytest.approx([0, 1, 0])
+    on the ball's left (+y, at +omega_hat), a left-hander's on its right (-y, -omega_hat)."""
+    assert pap_lane_direction(np.array([0.0, 30.0, 0.0]), "right") == pytest.approx([0, 1, 0])
+    assert pap_lane_direction(np.array([0.0, 30.0, 0.0]), "left") == pytest.approx([0, -1, 0])
     r = 0.1085
     slip = np.cross([0.0, 0.0, -r], [0.0, 30.0, 0.0]) - np.array([30.0 * r, 0.0, 0.0])
     assert slip == pytest.approx([0.0, 0.0, 0.0], abs=1e-15)
@@ -177,10 +177,8 @@ def test_resolved_ball_preserves_pin_to_pap_and_the_spec(roll: float) -> None:
     ball = resolve_ball(_BALL, layout, _PAP, 30.0 * _OMEGA_RH, roll_about_pap_deg=roll)
     w = _OMEGA_RH / np.linalg.norm(_OMEGA_RH)
     a1, a2 = np.array(ball.axis_1), np.array(ball.axis_2)
-    assert _arc(a1, -w) == pytest.approx(4.5 / _R, abs=1e-12)  # the right-hander's PAP is -omega
-    assert _arc(a2, -w) * _R == pytest.approx(
-        dual_angle_to_vls(layout, _R).psa_to_pap_in, abs=1e-12
-    )
+    assert _arc(a1, w) == pytest.approx(4.5 / _R, abs=1e-12)  # the right-hander's PAP is +omega
+    assert _arc(a2, w) * _R == pytest.approx(dual_angle_to_vls(layout, _R).psa_to_pap_in, abs=1e-12)
     assert (
         ball.rg_m == _BALL.rg_m
         and ball.mass_kg == _BALL.mass_kg
@@ -189,20 +187,23 @@ def test_resolved_ball_preserves_pin_to_pap_and_the_spec(roll: float) -> None:
     assert float(a1 @ a2) == pytest.approx(0.0, abs=1e-15)
 
 
-def test_roll_about_pap_rotates_about_the_pap_and_defaults_to_grip_on_top() -> None:
+def test_roll_about_pap_rotates_about_the_pap_and_defaults_to_grip_facing_the_bowler() -> None:
     axes = grip_axes(
         _BALL, DualAngle(drilling_angle_deg=45, pin_to_pap_in=4.5, val_angle_deg=30), _PAP
     )
     p_lane = pap_lane_direction(_OMEGA_RH, "right")
-    heights = []
+    travel = np.array([math.cos(0.02), math.sin(0.02), 0.0])
+    backward = []
     for roll in np.linspace(-180, 180, 73):
-        rot = grip_to_lane_rotation(axes.pap, p_lane, float(roll), "right")
+        rot = grip_to_lane_rotation(axes.pap, p_lane, float(roll), "right", travel)
         assert rot @ rot.T == pytest.approx(np.eye(3), abs=1e-14) and np.linalg.det(
             rot
         ) == pytest.approx(1.0)
         assert rot @ axes.pap == pytest.approx(p_lane, abs=1e-14)
-        heights.append(float((rot @ [0.0, 0.0, 1.0])[2]))  # height of the center of grip
-    assert int(np.argmax(heights)) == 36  # roll 0
+        backward.append(
+            float(-(rot @ [0.0, 0.0, 1.0]) @ travel)
+        )  # center of grip toward the bowler
+    assert int(np.argmax(backward)) == 36  # roll 0
 
 
 @pytest.mark.parametrize("hand", ["right", "left"])

@@ -94,6 +94,7 @@ def test_runs_list_filters_show_export_and_rm(tmp_path: Path) -> None:
     assert shown["scene"]["delivery"]["speed_mps"] == 7.0
     assert [e["kind"] for e in shown["events"]][-1] == "pins"
     assert shown["provenance"]["format_version"] == "2.0"
+    assert shown["provenance"]["bowler_layer_version"] == "2" and shown["warnings"] == []
     h5 = tmp_path / "out.h5"
     _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(h5))
     assert h5.stat().st_size > 0
@@ -287,3 +288,22 @@ def test_archive_migrate_converts_the_v1_fixture(tmp_path: Path) -> None:
     rows = json.loads(_ok("runs", "list", "-a", str(copy), "--json"))
     assert sorted(r["name"] for r in rows) == ["fixture-summary", "fixture-trajectory"]
     assert "already format 2.0" in _ok("archive", "migrate", str(copy))
+
+
+def test_runs_show_flags_a_run_made_before_the_current_bowler_layer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A segment whose provenance has no bowler_layer_version (written before it existed)."""
+    from bowlrec.archive import provenance
+
+    old = tuple(kv for kv in provenance._environment() if kv[0] != "bowler_layer_version")
+    monkeypatch.setattr(provenance, "_environment", lambda: old)
+    arch = str(tmp_path / "arch")
+    run_id = json.loads(_ok("simulate", str(_small_scene(tmp_path)), "-a", arch, "--json"))[
+        "run_id"
+    ]
+    monkeypatch.undo()
+    shown = json.loads(_ok("runs", "show", run_id, "-a", arch, "--json"))
+    assert "bowler_layer_version" not in shown["provenance"]
+    assert len(shown["warnings"]) == 1 and "other end of the spin axis" in shown["warnings"][0]
+    assert "made with bowler layer 1" in " ".join(_ok("runs", "show", run_id, "-a", arch).split())

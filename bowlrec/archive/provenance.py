@@ -11,7 +11,7 @@ from typing import Any
 
 import bowlrec
 
-__all__ = ["environment"]
+__all__ = ["bowler_layer_warning", "environment"]
 
 
 def _version(module: str) -> str:
@@ -29,6 +29,7 @@ def _environment() -> tuple[tuple[str, str], ...]:
     return (
         ("bowlrec_version", bowlrec.__version__),
         ("physics_version", bowlrec.PHYSICS_VERSION),
+        ("bowler_layer_version", str(bowlrec.BOWLER_LAYER_VERSION)),
         ("python_version", sys.version.split()[0]),
         ("platform", platform.platform()),
         ("numpy_version", _version("numpy")),
@@ -41,3 +42,21 @@ def _environment() -> tuple[tuple[str, str], ...]:
 def environment() -> dict[str, Any]:
     """This process's versions and platform (cached: package metadata is read once)."""
     return dict(_environment())
+
+
+def bowler_layer_warning(provenance: dict[str, Any]) -> str | None:
+    """A warning for a run made before the current bowlers' layer (no or an older
+    ``bowler_layer_version`` in its provenance), else None."""
+    made_with = provenance.get("bowler_layer_version")
+    try:
+        current = made_with is not None and int(made_with) >= bowlrec.BOWLER_LAYER_VERSION
+    except (TypeError, ValueError):
+        current = False
+    if current:
+        return None
+    return (
+        f"made with bowler layer {made_with or '1'} (current: {bowlrec.BOWLER_LAYER_VERSION}): "
+        "if this run came from a bowler scene, its PAP was placed at the other end of the spin "
+        "axis, so the layout and side-weight labels of that scene describe the mirror-side "
+        "ball; the physics of the stored scene is unaffected"
+    )

@@ -345,9 +345,11 @@ class StaticWeights(SpecModel):
       weight), ``+h x_g``: the viewer's right for a right-hander, left for a left-hander.
 
     Side-weight sign: pro-shop usage puts positive side weight on the PAP side of the grip
-    midline. Frohlich's Table I words it as "toward the left when facing the holes with the thumb
-    at 6 o'clock", which for a right-hander is the opposite side; bowlrec follows the pro-shop
-    (PAP-side) convention. Example: 3 oz on a 16 lb ball is an offset of 0.949 mm, Frohlich's
+    midline. Frohlich's Table I calls positive side weight "left" ("toward the left when facing
+    the holes with the thumb at 6 o'clock"); for a right-hander the PAP side is the ball's left
+    at release, where his P2 puts the extra hook, while a driller facing the holes with the
+    thumb at 6 o'clock sees it on the right. bowlrec follows the pro-shop (PAP-side) convention,
+    which agrees with P2. Example: 3 oz on a 16 lb ball is an offset of 0.949 mm, Frohlich's
     "r_Delta must be 1 mm or less" for the 3 oz limit.
     """
 

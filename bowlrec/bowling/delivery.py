@@ -33,11 +33,10 @@ Conventions (lane frame: x toward the pins, y from the RIGHT gutter toward the l
     clockwise): the fingers leave the ball on its bowling-hand side and turn that side forward
     (fingers at the right side moving toward +x give omega along +z), which is the spin of the
     paper's Table III combination case (omega 15 deg above horizontal, hooking left). The
-    positive axis point (PAP, the axis end on the bowling hand's side, -omega for a
-    right-hander) then sits below the horizontal at release, and the track is a smaller ring
-    closer to it (90 - tilt deg away). Note: /work/shared/domain-notes.md section 3.4 (an own
-    derivation there, "verify with tests") takes the PAP as the raised end; the spin
-    direction above decided against it.
+    positive axis point (PAP, +omega for a right-hander: to the ball's left and back toward
+    the bowler) is then the raised end of the axis, and the track, the ring of contact points
+    of the rolling ball, is the small circle 90 + tilt deg from the PAP: more tilt gives a
+    smaller, lower track (:mod:`bowlrec.bowling.layout`).
   - A left-hander is the exact mirror image through the x-z plane: rotation, tilt, launch angle
     and boards keep their numbers and meaning, and the physical state is mirrored
     (:func:`mirror_delivery`).

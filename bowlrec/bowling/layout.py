@@ -8,11 +8,17 @@ o'clock, y_g: toward the fingers, z_g: out through the center of grip); h = +1 f
 
 Definitions (domain notes Sec. 3):
 
-* **PAP** (positive axis point): where the initial rotation axis meets the surface, on the
-  bowler's side of the grip: ``over_in`` along the horizontal midline toward the bowler's hand
-  side (right for a right-hander), then ``up_in`` perpendicular to it toward the fingers. In
-  the lane frame at release the PAP is ``-h * omega_hat`` (a right-hander's forward roll has
-  omega along +y, to the bowler's left, so the PAP is on the ball's right).
+* **PAP** (positive axis point): where the initial rotation axis meets the surface:
+  ``over_in`` along the horizontal midline toward the bowler's hand side of the layout sheet
+  (the driller's right for a right-hander, holding the ball fingers up and thumb at 6 o'clock),
+  then ``up_in`` perpendicular to it toward the fingers. In the lane frame at release the PAP
+  is ``h * omega_hat``. At release the grip faces the bowler with the thumb above the fingers,
+  turned 180 deg from the driller's view, so the layout sheet's right is the bowler's left: a
+  right-hander's forward roll has omega along +y (the bowler's left) and side roll adds
+  omega_x < 0 (hook to the left), so the PAP sits on the ball's left, toward the back. With
+  positive tilt (omega_z > 0) it is the raised end of the axis; the track is the small circle
+  90 deg + tilt from it. A left-hander's PAP is the mirror image of the right-hander's, which
+  is ``-omega_hat`` of the mirrored spin (omega is an axial vector).
 * **VAL** (vertical axis line): the great circle through the PAP perpendicular to the horizontal
   midline (it runs through the PAP toward the finger pole y_g). ``v`` is its tangent at the
   PAP toward the fingers; ``g = h (p x v)`` is the tangent at the PAP toward the grip.
@@ -39,11 +45,12 @@ Definitions (domain notes Sec. 3):
   pin->CG great circle (which high-RG axis is chosen does not change I; it only fixes the
   drilling-angle reference).
 
-Resolution (:func:`resolve_ball`): the grip-frame PAP is rotated onto ``-h omega_hat``; the
-remaining rotation about the PAP is ``roll_about_pap_deg``: 0 puts the center of grip as high as
-possible (in the vertical half-plane through the rotation axis, above it), positive values
-rotate it by h * roll about the PAP direction (right-hand rule), so equal numbers for a left-
-hander give the exact mirror (y -> -y) of a right-hander.
+Resolution (:func:`resolve_ball`): the grip-frame PAP is rotated onto ``h omega_hat``; the
+remaining rotation about the PAP is ``roll_about_pap_deg``: 0 turns the center of grip as far
+as it goes toward the bowler (in the half-plane through the rotation axis that contains the
+backward release direction, -v_hat; straight up when the axis is horizontal along v), positive
+values rotate it by h * roll about the PAP direction (right-hand rule), so equal numbers for a
+left-hander give the exact mirror (y -> -y) of a right-hander.
 """
 
 from __future__ import annotations
@@ -309,25 +316,44 @@ def explicit_positions(
 
 
 # --- lane frame --------------------------------------------------------------------------------
+#: the release direction of travel when none is given: straight down the lane (+x)
+_DOWN_LANE = (1.0, 0.0, 0.0)
+
+
 def pap_lane_direction(omega_dir_lane: NDArray, handedness: Handedness) -> NDArray:
-    """The PAP's lane-frame direction at release: -h * omega_hat (h = +1 right-handed)."""
+    """The PAP's lane-frame direction at release: h * omega_hat (h = +1 right-handed)."""
     w = _unit(np.asarray(omega_dir_lane, dtype=float), "omega_dir_lane")
-    return -handedness_sign(handedness) * w
+    return handedness_sign(handedness) * w
+
+
+def _toward_bowler(p: NDArray, travel_dir_lane: NDArray) -> NDArray:
+    """Unit vector perpendicular to the PAP ``p`` closest to the backward release direction
+    (straight up when the PAP lies along the travel)."""
+    back = -_unit(np.asarray(travel_dir_lane, dtype=float), "travel_dir_lane")
+    rest = back - float(back @ p) * p
+    if float(np.linalg.norm(rest)) > 1e-9:
+        return _unit(rest, "the backward direction about the PAP")
+    z = np.array([0.0, 0.0, 1.0])
+    return _unit(z - float(z @ p) * p, "'up' about a vertical rotation axis")
 
 
 def grip_to_lane_rotation(
-    pap_grip: NDArray, pap_lane: NDArray, roll_about_pap_deg: float, handedness: Handedness
+    pap_grip: NDArray,
+    pap_lane: NDArray,
+    roll_about_pap_deg: float,
+    handedness: Handedness,
+    travel_dir_lane: NDArray | tuple[float, float, float] = _DOWN_LANE,
 ) -> NDArray:
-    """Rotation matrix (grip -> lane) taking ``pap_grip`` to ``pap_lane``; the center of grip
-    is as high as possible for roll 0 and turned by h * roll about the PAP otherwise."""
+    """Rotation matrix (grip -> lane) taking ``pap_grip`` to ``pap_lane``; for roll 0 the
+    center of grip faces the bowler as squarely as it can (toward -``travel_dir_lane``, the
+    backward release direction), otherwise it is turned by h * roll about the PAP."""
     h = handedness_sign(handedness)
     a = _unit(pap_grip, "the PAP")
     c = np.array([0.0, 0.0, 1.0])
     b = _unit(c - float(c @ a) * a, "the center of grip about the PAP (PAP at the grip)")
     p = _unit(pap_lane, "the PAP in the lane frame")
-    z = np.array([0.0, 0.0, 1.0])
-    zp = _unit(z - float(z @ p) * p, "'up' about a vertical rotation axis")
-    d = _rotate(zp, p, h * math.radians(roll_about_pap_deg))
+    back = _toward_bowler(p, np.asarray(travel_dir_lane, dtype=float))
+    d = _rotate(back, p, h * math.radians(roll_about_pap_deg))
     lane = np.column_stack([p, d, np.cross(p, d)])
     grip = np.column_stack([a, b, np.cross(a, b)])
     return lane @ grip.T
@@ -355,18 +381,22 @@ def resolve_ball(
     *,
     roll_about_pap_deg: float = 0.0,
     balance: StaticWeights | CenterOfMassMark | None = None,
+    travel_dir_lane: NDArray | tuple[float, float, float] = _DOWN_LANE,
 ) -> Ball:
     """The physical :class:`~bowlrec.spec.Ball` at release (SI, lane frame).
 
     ``omega_dir_lane``: direction of the initial angular velocity (lane frame; its length is
-    ignored); the PAP is placed at -h * omega_hat. ``axis_1`` is the pin (low RG), ``axis_2``
-    the PSA (high RG), axis 3 = axis_1 x axis_2, so ``rg_m`` = (RG_min, RG_max, RG_int).
-    ``com_offset_m`` comes from ``balance`` (static weights after drilling, or a center-of-mass
-    mark); none means a perfectly balanced drilled ball.
+    ignored); the PAP is placed at h * omega_hat. ``travel_dir_lane``: direction of the release
+    velocity (length ignored); with ``roll_about_pap_deg`` 0 the grip faces back along it.
+    ``axis_1`` is the pin (low RG), ``axis_2`` the PSA (high RG), axis 3 = axis_1 x axis_2, so
+    ``rg_m`` = (RG_min, RG_max, RG_int). ``com_offset_m`` comes from ``balance`` (static
+    weights after drilling, or a center-of-mass mark); none means a perfectly balanced drilled ball.
     """
     axes = grip_axes(ball, layout, pap)
     p_lane = pap_lane_direction(np.asarray(omega_dir_lane, dtype=float), pap.handedness)
-    rot = grip_to_lane_rotation(axes.pap, p_lane, roll_about_pap_deg, pap.handedness)
+    rot = grip_to_lane_rotation(
+        axes.pap, p_lane, roll_about_pap_deg, pap.handedness, travel_dir_lane
+    )
     offset = rot @ _balance_offset_grip(ball, balance, pap.handedness)
     return Ball(
         mass_kg=ball.mass_kg,

@@ -8,6 +8,7 @@ A file is read as a bowler scene when its top level has ``"format": "bowler"``
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
@@ -38,6 +39,12 @@ def _default_ball() -> BowlerBall:
     )
 
 
+def _heading(takeoff_angle_deg: float) -> tuple[float, float, float]:
+    """Unit lane-frame direction of a release at ``takeoff_angle_deg`` (positive toward +y)."""
+    a = math.radians(takeoff_angle_deg)
+    return (math.cos(a), math.sin(a), 0.0)
+
+
 class BowlerScene(SpecModel):
     """One delivery described as bowlers, drillers and coaches write it (lb, in, oz, mph, rpm,
     boards, ft, deg). Every field has a default: ``BowlerScene()`` is a right-hander's 17 mph,
@@ -66,8 +73,8 @@ class BowlerScene(SpecModel):
     )
     roll_about_pap_deg: FiniteFloat = Field(
         default=0.0,
-        description="Rotation of the ball about the PAP at release (deg); 0 puts the center of "
-        "grip as high as it can be.",
+        description="Rotation of the ball about the PAP at release (deg); 0 turns the center "
+        "of grip toward the bowler (thumb above the fingers), as at release.",
     )
     lane: BowlerLane = Field(default_factory=BowlerLane, description="Lane geometry (ft, in).")
     pattern: str | KegelPattern | RectanglePattern = Field(
@@ -155,6 +162,7 @@ class BowlerScene(SpecModel):
             delivery.omega_radps,
             roll_about_pap_deg=self.roll_about_pap_deg,
             balance=self.balance,
+            travel_dir_lane=_heading(delivery.takeoff_angle_deg),
         )
         return Scene(
             name=self.name,

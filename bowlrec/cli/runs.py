@@ -140,10 +140,14 @@ def show(
         row = store.row(stored.run_id)
     events = [e.__dict__ for e in stored.trajectory.events]
     provenance = {k: v for k, v in stored.attrs.items() if k not in ("scene_json", "summary_json")}
+    from bowlrec.archive.provenance import bowler_layer_warning
+
+    warning = bowler_layer_warning(provenance)
     if as_json:
         doc = {
             "index": row,
             "provenance": provenance,
+            "warnings": [] if warning is None else [warning],
             "summary": stored.trajectory.summary.to_dict(),
             "events": events,
             "scene": json.loads(stored.attrs["scene_json"]),
@@ -160,6 +164,8 @@ def show(
         "events", "\n".join(f"{e['kind']} t={e['t_s']:.4f}s x={e['x_m']:.3f}m" for e in events)
     )
     table.add_row("samples", str(stored.trajectory.n_samples))
+    if warning is not None:
+        table.add_row("warning", warning)
     Console().print(table)
 
 
