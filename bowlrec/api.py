@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +26,12 @@ def simulate(scene: Scene | dict[str, Any] | str | Path) -> Trajectory:
     return run_plan(as_scene(scene).resolve())
 
 
-def run_plan(plan: Plan, method: str = "auto") -> Trajectory:
-    """Simulate a resolved scene (:func:`bowlrec.core.solver.solve`, ``method`` as there) and
-    tell its outcome in words (the summary's ``message``)."""
+def run_plan(
+    plan: Plan, method: str = "auto", stations_m: Sequence[float] = (), turns: bool = False
+) -> Trajectory:
+    """Simulate a resolved scene (:func:`bowlrec.core.solver.solve`, ``method``, observed
+    ``stations_m`` and ``turns`` as there) and tell its outcome in words (the summary's
+    ``message``)."""
     from .core.solver import solve
 
-    return described(solve(plan, method), plan)
+    return described(solve(plan, method, stations_m, turns), plan)

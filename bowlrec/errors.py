@@ -12,6 +12,7 @@ code outside bowlrec may already catch it by a builtin type, from that builtin t
     │   │   └── JobError               (ValueError) a batch job
     │   ├── SpecFileError          (ValueError) a file cannot be read as a spec
     │   ├── IllegalBallError       (ValueError) the ball breaks the selected rules
+    │   ├── AimError               (ValueError) no release does what the aim asks for
     │   ├── BallRefError           (ValueError) a ball name or NAME@VERSION is malformed
     │   ├── IndexQueryError        (ValueError) a bad filter or sort column
     │   ├── UnknownFormatError     (ValueError) a file suffix names no output format
@@ -53,6 +54,7 @@ if TYPE_CHECKING:
     from bowlrec.bowling.legality import LegalityReport
 
 __all__ = [
+    "AimError",
     "ArchiveError",
     "ArchiveWriteError",
     "BallNotFoundError",
@@ -163,6 +165,11 @@ class IllegalBallError(InputError, ValueError):
             "set allow_illegal to true to simulate it anyway"
         )
         self.report = report
+
+
+class AimError(InputError, ValueError):
+    """No release in the allowed range makes the ball do what was asked (cross its target at
+    the arrows, enter the pocket); the message names the closest it came."""
 
 
 class BallRefError(InputError, ValueError):

@@ -111,7 +111,7 @@ def test_invalid_fields_are_named(fields: dict[str, object], pieces: list[str]) 
         assert piece in text
 
 
-def test_target_at_arrows_sets_the_launch_angle() -> None:
+def test_the_sighting_line_to_the_arrows_target_is_where_aiming_starts() -> None:
     bd = BowlerDelivery(laydown_board=15.0, laydown_ft=2.0, target_board_at_arrows=10.0)
     expected = math.degrees(math.atan2(-5.0 * LANE.board_width_m, 13.0 * FT_M))
     assert bd.launch_angle_on(LANE) == pytest.approx(expected, abs=1e-14)
@@ -120,14 +120,13 @@ def test_target_at_arrows_sets_the_launch_angle() -> None:
     x0, y0 = d.position_m
     y_arrows = y0 + math.tan(math.radians(d.takeoff_angle_deg)) * (LANE.arrows_x_m - x0)
     assert LANE.y_to_board(y_arrows) == pytest.approx(10.0, abs=1e-12)
-    # an explicit launch angle must agree with the target
-    agreeing = bd.model_copy(update={"launch_angle_deg": expected})
-    assert agreeing.launch_angle_on(LANE) == pytest.approx(expected, abs=1e-14)
-    disagreeing = BowlerDelivery(
-        laydown_board=15.0, laydown_ft=2.0, target_board_at_arrows=10.0, launch_angle_deg=-1.0
-    )
-    with pytest.raises(ValueError, match="launch_angle_deg = -1.0 disagrees"):
-        disagreeing.to_physical(LANE)
+    # an explicit angle replaces the sighting line
+    assert bd.to_physical(LANE, -2.0).takeoff_angle_deg == -2.0
+    # a target and a launch angle together are one too many
+    with pytest.raises(ValidationError, match="give only one"):
+        BowlerDelivery(
+            laydown_board=15.0, laydown_ft=2.0, target_board_at_arrows=10.0, launch_angle_deg=-1.0
+        )
     # neither given: straight down the boards
     assert BowlerDelivery().to_physical(LANE).takeoff_angle_deg == 0.0
 
@@ -246,16 +245,6 @@ def test_bowler_physics_bowler_round_trip() -> None:
         back = BowlerDelivery.from_physical(bd.to_physical(LANE), LANE, hand)
         # with no rotation the axis is undefined (both angles come back as 0)
         _assert_same(bd, back, angles=bd.rev_rate_rpm > 0.0)
-
-
-@pytest.mark.parametrize("hand", HANDS)
-def test_round_trip_with_the_arrows_target(hand: Handedness) -> None:
-    for board, target, ft in itertools.product([5.0, 17.5, 31.0], [3.0, 10.0, 12.5], [0.0, 4.0]):
-        bd = BowlerDelivery(
-            handedness=hand, laydown_board=board, laydown_ft=ft, target_board_at_arrows=target
-        )
-        back = BowlerDelivery.from_physical(bd.to_physical(LANE), LANE, hand, aim="arrows")
-        _assert_same(bd, back)
 
 
 def test_physics_bowler_physics_round_trip() -> None:

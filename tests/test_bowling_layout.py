@@ -268,3 +268,152 @@ def test_right_hander_hooks_left_and_left_hander_mirrors_exactly() -> None:
     assert rh.hook_m > 0.2  # hooks left (+y) by tens of cm on the typical pattern
     assert lh.hook_m == pytest.approx(-rh.hook_m, abs=1e-9)
     assert lh.slide_m == pytest.approx(rh.slide_m, abs=1e-9)
+
+
+# --- 2LS <-> Dual Angle <-> VLS ----------------------------------------------------------------
+from bowlrec.bowling.layout import (  # noqa: E402  (2LS tests appended below the others)
+    TwoLS,
+    convert_layout,
+    dual_angle_to_two_ls,
+    two_ls_to_dual_angle,
+    two_ls_to_vls,
+    vls_to_two_ls,
+)
+
+_R27 = 13.5 / math.pi  # the 27 in circumference ball of Storm's sheets and of [LA]
+
+
+def _la_pin_to_grip(pin: float, val_deg: float, over: float, up: float) -> float:
+    """[LA]'s independent formula (layout-math.js pinToCogDistance): the pin to the center of
+    grip on a sphere with the PAP at longitude over / R, latitude up / R (right-hander)."""
+    a, lam, phi, v = pin / _R27, over / _R27, up / _R27, math.radians(val_deg)
+    c = math.cos(a) * math.cos(phi) * math.cos(lam) + math.sin(a) * (
+        -math.sin(phi) * math.cos(lam) * math.cos(v) + math.sin(lam) * math.sin(v)
+    )
+    return _R27 * math.acos(c)
+
+
+def _finger_side(axes_pin: np.ndarray, pap: np.ndarray) -> bool:
+    """The pin on the same side of the PAP / center-of-grip great circle as the finger pole."""
+    n = np.cross(pap, [0.0, 0.0, 1.0])
+    return bool(np.sign(axes_pin @ n) == np.sign(n[1]))
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+@pytest.mark.parametrize(("da", "pin", "val"), _GRID)
+def test_two_ls_dual_angle_vls_round_trips(hand: str, da: float, pin: float, val: float) -> None:
+    pap = PAP(over_in=4.75, up_in=0.5, handedness=hand)  # type: ignore[arg-type]
+    layout = DualAngle(drilling_angle_deg=da, pin_to_pap_in=pin, val_angle_deg=val)
+    tls = dual_angle_to_two_ls(layout, pap, _R)
+    back = two_ls_to_dual_angle(tls, pap, _R)
+    assert (back.drilling_angle_deg, back.pin_to_pap_in, back.val_angle_deg) == pytest.approx(
+        (da, pin, val), abs=1e-9
+    )
+    vls = dual_angle_to_vls(layout, _R)
+    via_vls = vls_to_two_ls(vls, pap, _R)
+    for field in ("pin_to_pap_in", "psa_to_pap_in", "pin_to_grip_center_in"):
+        assert getattr(via_vls, field) == pytest.approx(getattr(tls, field), abs=1e-9)
+    assert via_vls.pin_toward_fingers == tls.pin_toward_fingers
+    again = two_ls_to_vls(tls, pap, _R)
+    assert (again.psa_to_pap_in, again.pin_buffer_in) == pytest.approx(
+        (vls.psa_to_pap_in, vls.pin_buffer_in), abs=1e-9
+    )
+    assert again.pin_above_pap == vls.pin_above_pap
+    # every system pair through convert_layout lands on the same axes
+    ref = grip_axes(_BALL, layout, pap)
+    for source in (layout, vls, tls):
+        for system in ("dual_angle", "vls", "2ls"):
+            out = convert_layout(source, system, pap, _R)  # type: ignore[arg-type]
+            assert out.system == system
+            axes = grip_axes(_BALL, out, pap)
+            assert axes.pin == pytest.approx(ref.pin, abs=1e-9)
+            assert axes.psa == pytest.approx(ref.psa, abs=1e-9)
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+@pytest.mark.parametrize(
+    ("pin", "psa", "grip", "fingers"),
+    [(5.5, 5.0, 2.0, True), (4.0, 4.0, 5.0, True), (3.5, 4.0, 6.5, True), (4.0, 3.5, 3.0, False)],
+)
+def test_two_ls_geometry_matches_its_definition(
+    hand: str, pin: float, psa: float, grip: float, fingers: bool
+) -> None:
+    pap = PAP(over_in=5.0, up_in=1.0, handedness=hand)  # type: ignore[arg-type]
+    tls = TwoLS(
+        pin_to_pap_in=pin, psa_to_pap_in=psa, pin_to_grip_center_in=grip, pin_toward_fingers=fingers
+    )
+    axes = grip_axes(_BALL, tls, pap)
+    assert _arc(axes.pin, axes.pap) * _R == pytest.approx(pin, abs=1e-12)
+    assert _arc(axes.pin, np.array([0.0, 0.0, 1.0])) * _R == pytest.approx(grip, abs=1e-12)
+    assert _arc(axes.psa, axes.pap) * _R == pytest.approx(psa, abs=1e-12)
+    assert _arc(axes.pin, axes.psa) == pytest.approx(math.pi / 2, abs=1e-12)
+    assert _finger_side(axes.pin, axes.pap) is fingers
+
+
+def test_two_ls_left_hander_is_the_mirror_image() -> None:
+    tls = TwoLS(pin_to_pap_in=5.0, psa_to_pap_in=4.0, pin_to_grip_center_in=3.5)
+    rh = grip_axes(_BALL, tls, PAP(over_in=5, up_in=1, handedness="right"))
+    lh = grip_axes(_BALL, tls, PAP(over_in=5, up_in=1, handedness="left"))
+    m = np.diag([-1.0, 1.0, 1.0])
+    for a, b in ((rh.pap, lh.pap), (rh.pin, lh.pin), (rh.psa, lh.psa)):
+        assert b == pytest.approx(m @ a, abs=1e-15)
+
+
+def test_dual_angle_to_two_ls_matches_the_layout_adapter_formula() -> None:
+    """45 x 4.5 x 30 for a PAP 5 over x 1 up on the 27 in ball: [LA]'s independent formula gives
+    the pin 4.391048900139 in from the center of grip; the PSA is 3.917906707 in from the PAP."""
+    pap = PAP(over_in=5.0, up_in=1.0)
+    tls = dual_angle_to_two_ls(
+        DualAngle(drilling_angle_deg=45, pin_to_pap_in=4.5, val_angle_deg=30), pap, _R27
+    )
+    assert tls.pin_to_grip_center_in == pytest.approx(_la_pin_to_grip(4.5, 30, 5, 1), abs=1e-12)
+    assert tls.pin_to_grip_center_in == pytest.approx(4.391048900139, abs=1e-11)
+    assert tls.psa_to_pap_in == pytest.approx(3.917906706972, abs=1e-11)
+    assert tls.pin_toward_fingers
+
+
+#: Storm's 2LS example layouts (pin-to-PAP x PSA-to-PAP x pin-to-grip, in), as [LA] lists them
+#: from Storm's 2LS drilling instructions, and their Dual Angle form for a PAP 5 over x 1 up on
+#: the 27 in ball (this module's arithmetic; the sixth puts the pin past the VAL)
+_STORM_2LS = [
+    ((5.5, 5.0, 2.0), (65.58, 68.04)),
+    ((2.0, 6.0, 5.0), (67.24, 12.85)),
+    ((5.0, 4.0, 3.5), (49.43, 44.71)),
+    ((4.5, 3.0, 4.5), (27.80, 28.30)),
+    ((4.0, 4.0, 5.0), (41.89, 18.64)),
+    ((3.5, 4.0, 6.5), None),
+]
+
+
+@pytest.mark.parametrize(("numbers", "dual"), _STORM_2LS)
+def test_storm_2ls_examples(
+    numbers: tuple[float, float, float], dual: tuple[float, float] | None
+) -> None:
+    pap = PAP(over_in=5.0, up_in=1.0)
+    tls = TwoLS(
+        pin_to_pap_in=numbers[0], psa_to_pap_in=numbers[1], pin_to_grip_center_in=numbers[2]
+    )
+    ball = _BALL.model_copy(update={"diameter_in": 2 * _R27})
+    axes = grip_axes(ball, tls, pap)
+    assert _arc(axes.pin, axes.pap) * _R27 == pytest.approx(numbers[0], abs=1e-12)
+    assert _arc(axes.psa, axes.pap) * _R27 == pytest.approx(numbers[1], abs=1e-12)
+    assert _arc(axes.pin, np.array([0.0, 0.0, 1.0])) * _R27 == pytest.approx(numbers[2], abs=1e-12)
+    if dual is None:
+        with pytest.raises(ValueError, match=r"VAL angle -12\.2\d* deg .*far side of the VAL"):
+            two_ls_to_dual_angle(tls, pap, _R27)
+        return
+    da = two_ls_to_dual_angle(tls, pap, _R27)
+    assert (da.drilling_angle_deg, da.val_angle_deg) == pytest.approx(dual, abs=0.005)
+    assert _la_pin_to_grip(da.pin_to_pap_in, da.val_angle_deg, 5, 1) == pytest.approx(numbers[2])
+
+
+def test_impossible_two_ls_is_rejected_with_the_reason() -> None:
+    pap = PAP(over_in=5.0, up_in=0.5)
+    with pytest.raises(ValueError, match=r"impossible for this PAP.*circles miss"):
+        two_ls_to_dual_angle(
+            TwoLS(pin_to_pap_in=1.0, psa_to_pap_in=6.0, pin_to_grip_center_in=1.0), pap, _R
+        )
+    with pytest.raises(ValueError, match=r"\|cos\(psa_to_pap / R\)\| <= sin\(pin_to_pap / R\)"):
+        two_ls_to_dual_angle(
+            TwoLS(pin_to_pap_in=1.0, psa_to_pap_in=1.0, pin_to_grip_center_in=5.0), pap, _R
+        )

@@ -365,18 +365,31 @@ def test_paper_typical_preset_equals_typical_friction() -> None:
 
 
 def test_mapping_defaults_are_the_papers_two_levels() -> None:
+    """The default mapping gives the paper's two levels to a ball without coverstock or
+    surface and to the reference ball (reactive_solid at 1000 grit); cover_model 'none' gives
+    them to every ball."""
     m = OilFrictionMapping()
-    assert (m.mu_oil, m.mu_dry) == (0.04, 0.20)
+    assert (m.mu_oil, m.mu_dry, m.cover_model) == (0.04, 0.20, "ranked")
     films = np.array([0.0, 1e-9, 0.5, 100.0])
     np.testing.assert_array_equal(mu_of_film(films), [0.20, 0.04, 0.04, 0.04])
+    np.testing.assert_array_equal(
+        mu_of_film(films, m, "reactive_solid", 1000), [0.20, 0.04, 0.04, 0.04]
+    )
+    none = OilFrictionMapping(cover_model="none")
     for cover in ("polyester", "urethane", "reactive_solid", "particle"):
-        np.testing.assert_array_equal(mu_of_film(films, m, cover), [0.20, 0.04, 0.04, 0.04])
+        for surface in (None, 500, "polished"):
+            np.testing.assert_array_equal(
+                mu_of_film(films, none, cover, surface), [0.20, 0.04, 0.04, 0.04]
+            )
 
 
 def test_mapping_ramp_and_coverstock_factors() -> None:
+    """Explicit factors on top of cover_model 'none': each multiplies its level, a coverstock
+    without an entry keeps the mapping's levels."""
     m = OilFrictionMapping(
         dry_at_or_below_um=1.0,
         oiled_at_or_above_um=3.0,
+        cover_model="none",
         dry_factor={"particle": 1.5},
         oil_factor={"particle": 2.0, "polyester": 0.5},
     )

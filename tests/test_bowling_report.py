@@ -10,7 +10,7 @@ import pytest
 from bowlrec.api import simulate
 from bowlrec.bowling.delivery import BowlerDelivery, hooking_delivery
 from bowlrec.bowling.lane import BowlerLane, Handedness
-from bowlrec.bowling.report import BowlerReport, bowler_report
+from bowlrec.bowling.report import BowlerReport, bowler_report, observed_run
 from bowlrec.bowling.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import SamplesRequiredError
@@ -180,7 +180,86 @@ def test_gutter_ball_has_no_entry() -> None:
     assert report.breakpoint_board == pytest.approx(0.5, abs=1e-9)  # at the lane edge
 
 
-def test_summary_only_runs_are_refused() -> None:
+def test_summary_only_runs_without_observations_are_refused() -> None:
     trajectory = _run(HOOK, record="summary")
     with pytest.raises(SamplesRequiredError, match="record = 'summary'"):
         bowler_report(trajectory, LANE)
+
+
+def _observed(bd: BowlerDelivery) -> Trajectory:
+    scene = Scene(
+        ball=Ball(radius_m=RADIUS_M), lane=LANE.to_physical(), delivery=bd.to_physical(LANE),
+        options={"record": "summary"},  # type: ignore[arg-type]
+    )  # fmt: skip
+    return observed_run(scene.resolve(), LANE)
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_specto_windows_of_a_straight_roll_are_its_line(hand: Handedness) -> None:
+    """A rolling uniform ball keeps its speed and direction: every window reads the line."""
+    bd = _rolling(laydown_board=10.0, laydown_ft=1.0, target_board_at_arrows=12.0)
+    bd = bd.model_copy(update={"handedness": hand})
+    launch = bd.launch_angle_on(LANE)
+    slope = math.tan(math.radians(launch)) * FT_M / LANE.board_width_m  # boards per ft
+    for report in (bowler_report(_run(bd), LANE, hand), bowler_report(_observed(bd), LANE, hand)):
+        for angle in (
+            report.specto_launch_angle_deg, report.specto_entry_angle_deg,
+            report.specto_impact_angle_deg,
+        ):  # fmt: skip
+            assert angle == pytest.approx(launch, abs=1e-9)
+        assert report.specto_launch_speed_mph == pytest.approx(17.0, abs=1e-9)
+        assert report.specto_entry_speed_mph == pytest.approx(17.0, abs=1e-9)
+        assert report.specto_entry_board == pytest.approx(10.0 + slope * 58.5, abs=1e-9)
+
+
+@pytest.mark.parametrize("hand", ["right", "left"])
+def test_the_report_from_observations_equals_the_report_from_samples(
+    hooks: dict[Handedness, tuple[Trajectory, BowlerReport]], hand: Handedness
+) -> None:
+    """The kernel's observations (summary only, exact dense output at the stations) against
+    the recorded path (cubic Hermite between steps): the same definitions, two sources."""
+    bd = HOOK if hand == "right" else HOOK.mirrored()
+    from_samples = hooks[hand][1].to_dict()
+    observed = _observed(bd)
+    assert observed.n_samples == 0
+    from_observations = bowler_report(observed, LANE, hand).to_dict()
+    for key, value in from_samples.items():
+        if not isinstance(value, float):
+            assert from_observations[key] == value, key
+        elif "axis" in key and "breakpoint" in key:
+            # omega is interpolated linearly between samples
+            assert from_observations[key] == pytest.approx(value, abs=0.02), key
+        else:
+            assert from_observations[key] == pytest.approx(value, abs=2e-6), key
+
+
+def test_specto_entry_windows_read_the_straight_roll_after_the_hook(
+    hooks: dict[Handedness, tuple[Trajectory, BowlerReport]],
+) -> None:
+    """A uniform ball that rolls before 51 ft goes straight from there: both entry windows
+    read the entry angle, and the board at 59.5 ft lies on the entry line."""
+    r = hooks["right"][1]
+    assert r.slide_ft is not None and r.slide_ft < 51.0
+    assert r.entry_angle_deg is not None and r.entry_board is not None
+    assert r.specto_entry_angle_deg == pytest.approx(r.entry_angle_deg, abs=1e-9)
+    assert r.specto_impact_angle_deg == pytest.approx(r.entry_angle_deg, abs=1e-9)
+    slope = math.tan(math.radians(r.entry_angle_deg)) * FT_M / LANE.board_width_m
+    assert r.specto_entry_board == pytest.approx(r.entry_board - 0.5 * slope, abs=1e-9)
+
+
+def test_specto_entry_angle_lags_the_exact_one_for_a_ball_still_hooking() -> None:
+    """The pocket example rolls from ~54 ft and its unequal moments of inertia keep turning it
+    after that: Specto's windows read the growing angle below the exact one at 60 ft."""
+    import json
+    from pathlib import Path
+
+    from bowlrec.bowling.scene import BowlerScene
+
+    path = Path(__file__).parents[1] / "examples" / "bowler" / "pocket-right.json"
+    scene = BowlerScene.model_validate(json.loads(path.read_text()))
+    plan = scene.to_scene().resolve()
+    r = bowler_report(observed_run(plan, scene.lane), scene.lane, "right")
+    assert r.slide_ft is not None and 51.0 < r.slide_ft < 57.0
+    assert r.entry_angle_deg is not None and r.specto_entry_angle_deg is not None
+    assert r.specto_impact_angle_deg is not None
+    assert r.specto_entry_angle_deg < r.specto_impact_angle_deg < r.entry_angle_deg - 0.1

@@ -88,7 +88,7 @@ def test_bowling_cli_commands(tmp_path: Path) -> None:
     assert stats["total_ml"] == pytest.approx(24.7) and stats["ratio"] == pytest.approx(22 / 3)
     assert runner.invoke(app, ["patterns", "nope"]).exit_code == 2
     sheet = runner.invoke(app, ["sheet", "storm-the-road-15lb"])
-    assert sheet.exit_code == 0 and "RG              2.470 in" in sheet.output
+    assert sheet.exit_code == 0 and "RG              2.550 in" in sheet.output
     assert "rule set 'current': legal" in sheet.output
     path = tmp_path / "bowler.json"
     assert runner.invoke(app, ["bowler-scene", str(path)]).exit_code == 0
@@ -129,7 +129,7 @@ def test_curated_library_goes_into_the_archive_and_drives_bowler_scenes(tmp_path
     again = runner.invoke(app, ["balls", "add-examples", "-a", arch])
     assert again.output.count("unchanged") == len(curated)
     shown = runner.invoke(app, ["balls", "show", "storm-the-road-15lb", "-a", arch])
-    assert "RG              2.470 in" in shown.output
+    assert "RG              2.550 in" in shown.output
     out = runner.invoke(
         app, ["simulate", str(EXAMPLE), "--ball", "storm-the-road-15lb", "-a", arch, "--json"]
     )

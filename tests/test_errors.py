@@ -53,6 +53,7 @@ BUILTIN_BASES: dict[type[E.BowlrecError], type[Exception]] = {
     E.JobError: ValueError,
     E.SpecFileError: ValueError,
     E.IllegalBallError: ValueError,
+    E.AimError: ValueError,
     E.BallRefError: ValueError,
     E.IndexQueryError: ValueError,
     E.UnknownFormatError: ValueError,

@@ -364,7 +364,7 @@ def test_a_bowler_scene_whose_physical_scene_is_invalid_says_so() -> None:
     ball = {"name": "x", "weight_lb": 15, "rg_in": 2.5, "differential_in": 0.03}
     data = {
         "format": "bowler",
-        "ball": {**ball, "coverstock": "urethane"},
+        "ball": {**ball, "coverstock": "urethane", "surface": 1000},
         "oil_friction": {"mu_dry": 10, "dry_factor": {"urethane": 5}},
     }
     message = _error(data)

@@ -429,7 +429,8 @@ class SegmentFile:
         ]
         if not samples:
             samples = _empty_samples()
-        traj = Trajectory(**samples, events=evs, summary=summary, torques_Nm=dict(torques))
+        arrays: dict[str, Any] = dict(samples)
+        traj = Trajectory(**arrays, events=evs, summary=summary, torques_Nm=dict(torques))
         attrs = {k: v for k, v in self.provenance.items() if k not in ("n_runs",)}
         attrs.update(
             {

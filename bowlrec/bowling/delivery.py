@@ -12,9 +12,12 @@ Conventions (lane frame: x toward the pins, y from the RIGHT gutter toward the l
   swings the ball out toward the right gutter has a negative launch angle (USBC's EARL robot:
   -2.0 to -1.0 deg). Physical take-off angle (positive toward +y): ``+launch`` for a
   right-hander, ``-launch`` for a left-hander.
-* **Target at the arrows** ``target_board_at_arrows``: the (fractional) board the center crosses
-  15 ft past the foul line; with the laydown point it fixes the launch angle,
-  ``tan(launch) = (target - laydown) * board_width / (15 ft - laydown_ft)``.
+* **Target at the arrows** ``target_board_at_arrows``: the (fractional) board the center
+  crosses 15 ft past the foul line. The ball curves on its way there, so a bowler scene solves
+  the launch angle for which the simulated path crosses the target
+  (:class:`~bowlrec.bowling.shot.Shot`); the straight line from the laydown point,
+  ``tan(launch) = (target - laydown) * board_width / (15 ft - laydown_ft)``, is the sighting
+  line the solver starts from (:meth:`BowlerDelivery.launch_angle_on`).
 * **Laydown** ``laydown_board`` (bowler's own count, see :mod:`bowlrec.bowling.lane`) and
   ``laydown_ft`` (distance of the release point past the foul line): the initial position of the
   center.
@@ -52,7 +55,6 @@ axis rotation is undefined and reported as 0.
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 from pydantic import Field, model_validator
 
@@ -70,7 +72,6 @@ from .lane import BowlerLane, Handedness
 from .units import ARROWS_FT, BOARDS, FT_M, MPH_MPS, RPM_RADPS
 
 __all__ = [
-    "ANGLE_AGREEMENT_DEG",
     "BowlerDelivery",
     "Vec3",
     "axis_angles_deg",
@@ -82,8 +83,6 @@ __all__ = [
 
 #: a 3-vector of floats (lane frame)
 Vec3 = tuple[float, float, float]
-#: how closely an explicit launch angle must agree with the one the arrows target implies (deg)
-ANGLE_AGREEMENT_DEG = 1e-9
 #: lowest / highest fractional board a ball's center can be on: the lane's edges
 _BOARD_MIN = 0.5
 _BOARD_MAX = BOARDS + 0.5
@@ -159,7 +158,7 @@ MAX_REV_RATE_RPM = 9500.0
 class BowlerDelivery(SpecModel):
     """A delivery in tracking-system terms (mph, rpm, degrees, boards, ft); see the module doc
     for every zero and sign. Give the direction either as ``launch_angle_deg`` or as
-    ``target_board_at_arrows`` (both only if they agree; neither means launch angle 0)."""
+    ``target_board_at_arrows`` (not both; neither means launch angle 0)."""
 
     handedness: Handedness = Field(
         default="right",
@@ -220,8 +219,8 @@ class BowlerDelivery(SpecModel):
         lt=90.0,
         description=(
             "Angle of the release velocity to the boards (deg) in (-90, 90), positive toward "
-            "higher boards (negative = outward, toward the bowling hand's gutter). null: from "
-            "target_board_at_arrows, or 0 if that is null too."
+            "higher boards (negative = outward, toward the bowling hand's gutter). null: solved "
+            "from target_board_at_arrows, or 0 if that is null too."
         ),
     )
     target_board_at_arrows: FiniteFloat | None = Field(
@@ -230,13 +229,21 @@ class BowlerDelivery(SpecModel):
         le=_BOARD_MAX,
         description=(
             "Board (fractional) the ball's center crosses at the arrows, 15 ft past the foul "
-            "line, in [0.5, 39.5]; sets the launch angle from the laydown point."
+            "line, in [0.5, 39.5]; a bowler scene solves the launch angle that makes its path "
+            "cross it (to 1e-6 board)."
         ),
     )
 
     @model_validator(mode="after")
     def _target_needs_laydown_before_arrows(self) -> BowlerDelivery:
-        """A target at the arrows needs a release point short of the arrows."""
+        """A target at the arrows needs a release point short of the arrows, and no launch
+        angle beside it (the target decides the angle)."""
+        if self.target_board_at_arrows is not None and self.launch_angle_deg is not None:
+            raise spec_error(
+                f"launch_angle_deg = {fmt(self.launch_angle_deg)} and target_board_at_arrows = "
+                f"{fmt(self.target_board_at_arrows)}: give only one (the launch angle is solved "
+                "from the target)"
+            )
         if self.target_board_at_arrows is not None and not self.laydown_ft < ARROWS_FT:
             raise spec_error(
                 f"laydown_ft = {fmt(self.laydown_ft)} must be < {fmt(ARROWS_FT)} (the arrows) "
@@ -258,27 +265,18 @@ class BowlerDelivery(SpecModel):
 
     def launch_angle_on(self, lane: BowlerLane) -> float:
         """The launch angle (deg, positive toward higher boards) on ``lane``: the explicit one,
-        or the one the target at the arrows implies (they must agree to 1e-9 deg if both are
-        given), or 0."""
+        or, with a target at the arrows, the sighting line from the laydown point straight to
+        it (where a bowler scene's aim solver starts), or 0."""
         if self.target_board_at_arrows is None:
             return 0.0 if self.launch_angle_deg is None else self.launch_angle_deg
-        implied = _angle_to_target_deg(
+        return _angle_to_target_deg(
             lane, self.laydown_board, self.laydown_ft, self.target_board_at_arrows
         )
-        given = self.launch_angle_deg
-        if given is not None and not abs(given - implied) <= ANGLE_AGREEMENT_DEG:
-            raise ValueError(
-                f"launch_angle_deg = {fmt(given)} disagrees with the angle "
-                f"{fmt(implied)} deg implied by laydown_board = {fmt(self.laydown_board)} at "
-                f"laydown_ft = {fmt(self.laydown_ft)} and target_board_at_arrows = "
-                f"{fmt(self.target_board_at_arrows)} (tolerance {ANGLE_AGREEMENT_DEG:g} deg); "
-                "give only one of them"
-            )
-        return implied
 
-    def takeoff_angle_on(self, lane: BowlerLane) -> float:
-        """Physical take-off angle (deg, positive toward +y, the left) on ``lane``."""
-        launch = self.launch_angle_on(lane)
+    def takeoff_angle_on(self, lane: BowlerLane, launch_angle_deg: float | None = None) -> float:
+        """Physical take-off angle (deg, positive toward +y, the left) on ``lane`` of the
+        launch angle ``launch_angle_deg`` (None: :meth:`launch_angle_on`)."""
+        launch = self.launch_angle_on(lane) if launch_angle_deg is None else launch_angle_deg
         return launch if self.handedness == "right" else -launch
 
     def mirrored(self) -> BowlerDelivery:
@@ -288,18 +286,19 @@ class BowlerDelivery(SpecModel):
 
     # --- conversions ---------------------------------------------------------------------
 
-    def to_physical(self, lane: BowlerLane) -> Delivery:
-        """The physical :class:`~bowlrec.spec.Delivery` (SI, lane frame) on ``lane``.
+    def to_physical(self, lane: BowlerLane, launch_angle_deg: float | None = None) -> Delivery:
+        """The physical :class:`~bowlrec.spec.Delivery` (SI, lane frame) on ``lane``, launched
+        at ``launch_angle_deg`` (deg, toward higher boards; None: :meth:`launch_angle_on`, the
+        sighting line for a target at the arrows: a bowler scene passes the solved angle).
 
-        Raises ValueError if the release point is not on the lane (laydown_ft >= length) or the
-        launch angle and the arrows target disagree."""
+        Raises ValueError if the release point is not on the lane (laydown_ft >= length)."""
         x = lane.ft_to_x_m(self.laydown_ft)
         if not x < lane.length_m:
             raise ValueError(
                 f"laydown_ft = {fmt(self.laydown_ft)} must be < the lane length "
                 f"{fmt(lane.length_ft)} ft"
             )
-        takeoff = self.takeoff_angle_on(lane)
+        takeoff = self.takeoff_angle_on(lane, launch_angle_deg)
         return Delivery(
             position_m=(x, lane.board_to_y_m(self.laydown_board, self.handedness)),
             speed_mps=self.speed_mps,
@@ -319,14 +318,11 @@ class BowlerDelivery(SpecModel):
         delivery: Delivery,
         lane: BowlerLane,
         handedness: Handedness = "right",
-        aim: Literal["launch_angle", "arrows"] = "launch_angle",
     ) -> BowlerDelivery:
-        """The bowler's description of a physical delivery on ``lane`` by ``handedness``.
-
-        ``aim`` chooses how the direction is given: as ``launch_angle_deg`` or as
-        ``target_board_at_arrows`` (the release point must then be short of the arrows). A
-        release position of None is the lane center on the foul line, as in the physical
-        model."""
+        """The bowler's description of a physical delivery on ``lane`` by ``handedness``, its
+        direction as ``launch_angle_deg`` (the board crossed at the arrows depends on the ball
+        and the oil: :func:`bowlrec.bowling.report.bowler_report` reports it). A release
+        position of None is the lane center on the foul line, as in the physical model."""
         x, y = delivery.position_m or (0.0, lane.width_m / 2.0)
         takeoff = delivery.takeoff_angle_deg
         launch = takeoff if handedness == "right" else -takeoff
@@ -341,13 +337,8 @@ class BowlerDelivery(SpecModel):
             "axis_tilt_deg": tilt,
             "laydown_board": laydown_board,
             "laydown_ft": laydown_ft,
+            "launch_angle_deg": launch,
         }
-        if aim == "arrows":
-            fields["target_board_at_arrows"] = _target_board(
-                lane, laydown_board, laydown_ft, launch
-            )
-        else:
-            fields["launch_angle_deg"] = launch
         return cls.model_validate(fields)
 
 
@@ -373,11 +364,3 @@ def _angle_to_target_deg(
     across = (target_board - laydown_board) * lane.board_width_m
     along = (ARROWS_FT - laydown_ft) * FT_M
     return math.degrees(math.atan2(across, along))
-
-
-def _target_board(
-    lane: BowlerLane, laydown_board: float, laydown_ft: float, launch_deg: float
-) -> float:
-    """Board crossed at the arrows by a straight line from the laydown point at ``launch_deg``."""
-    along = (ARROWS_FT - laydown_ft) * FT_M
-    return laydown_board + math.tan(math.radians(launch_deg)) * along / lane.board_width_m

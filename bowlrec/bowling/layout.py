@@ -34,13 +34,30 @@ Definitions (domain notes Sec. 3):
 * **VLS** ``pin_to_pap x psa_to_pap x pin_buffer``: pin_buffer is the distance from the pin to
   the VAL; ``pin_above_pap`` says on which side of the horizontal great circle through the PAP
   the pin is (True: val_angle <= 90 deg).
+* **2LS** (Storm's two-hand / thumbless layout system) ``pin_to_pap x psa_to_pap x
+  pin_to_grip_center`` (in): the pin is where the circle of radius pin_to_pap about the PAP
+  meets the circle of radius pin_to_grip_center about the center of grip (z_g), on the finger
+  side of the great circle through the PAP and the center of grip (the side of the finger pole
+  y_g; ``pin_toward_fingers=False`` takes the other intersection); the PSA is psa_to_pap from
+  the PAP, 90 deg from the pin, on the standard Dual Angle side of the pin->PAP line (as for
+  VLS). Order of the numbers and the finger-side rule: Storm's 2LS drilling instructions as
+  implemented and tested by [LA] (docs/drilling.md lists the sources and where they disagree).
+  For a thumbless grip the center of grip is the midpoint of the bridge [LA]. Unlike Dual Angle
+  and VLS the third number depends on the PAP, so every 2LS conversion takes the PAP.
 * Conversions (spherical law of cosines / sines, the PSA 90 deg from the pin)::
 
       psa_to_pap = R acos(sin(t_pin) cos(DA))      DA  = acos(cos(t_psa) / sin(t_pin))
       pin_buffer = R asin(sin(t_pin) sin(VAL))     VAL = asin(sin(t_buf) / sin(t_pin))
 
   Dual Angle drilling angles lie in [0, 180] deg: VLS cannot tell the PSA's side of the
-  pin->PAP line, and this is the side of the standard Dual Angle convention.
+  pin->PAP line, and this is the side of the standard Dual Angle convention. 2LS <-> Dual
+  Angle, with p the PAP, (v, g) its VAL frame, A = v . z_g, B = g . z_g, beta = atan2(B, A)
+  (the direction of the center of grip seen from the PAP, measured like the VAL angle)::
+
+      cos(t_grip) = cos(t_pin) (p . z_g) + sin(t_pin) (A cos(VAL) + B sin(VAL))
+      VAL = beta -+ acos((cos(t_grip) - cos(t_pin) (p . z_g)) / (sin(t_pin) hypot(A, B)))
+
+  (minus: pin toward the fingers) and the drilling angle as from VLS.
 * For a **symmetric** ball there is no PSA; the "PSA" is the point 90 deg from the pin on the
   pin->CG great circle (which high-RG axis is chosen does not change I; it only fixes the
   drilling-angle reference).
@@ -87,8 +104,12 @@ __all__ = [
     "ExplicitPositions",
     "GripAxes",
     "Layout",
+    "LayoutSystem",
+    "TwoLS",
     "VLS",
+    "convert_layout",
     "dual_angle_from_axes",
+    "dual_angle_to_two_ls",
     "dual_angle_to_vls",
     "explicit_positions",
     "grip_axes",
@@ -96,7 +117,10 @@ __all__ = [
     "load_example_library",
     "pap_lane_direction",
     "resolve_ball",
+    "two_ls_to_dual_angle",
+    "two_ls_to_vls",
     "vls_to_dual_angle",
+    "vls_to_two_ls",
 ]
 
 _EPS = 1e-12
@@ -143,6 +167,24 @@ class VLS(SpecModel):
     )
 
 
+class TwoLS(SpecModel):
+    """Storm's 2LS: pin-to-PAP x PSA (MB)-to-PAP x pin-to-center-of-grip (in); the pin on the
+    finger side of the great circle through the PAP and the center of grip unless
+    ``pin_toward_fingers`` is False (module docstring)."""
+
+    system: Literal["2ls"] = "2ls"
+    pin_to_pap_in: PositiveFloat = Field(description="Pin to PAP surface distance (in).")
+    psa_to_pap_in: NonNegativeFloat = Field(description="PSA (MB) to PAP surface distance (in).")
+    pin_to_grip_center_in: NonNegativeFloat = Field(
+        description="Pin to center of grip surface distance (in); thumbless: to the bridge center."
+    )
+    pin_toward_fingers: bool = Field(
+        default=True,
+        description="Pin on the finger side of the great circle through the PAP and the center "
+        "of grip (Storm's placement); False: the other intersection.",
+    )
+
+
 class ExplicitPositions(SpecModel):
     """Pin and PSA (CG for a symmetric ball) as surface positions from the center of grip."""
 
@@ -169,8 +211,10 @@ class ExplicitAxes(SpecModel):
 
 
 Layout = Annotated[
-    DualAngle | VLS | ExplicitPositions | ExplicitAxes, Field(discriminator="system")
+    DualAngle | VLS | TwoLS | ExplicitPositions | ExplicitAxes, Field(discriminator="system")
 ]
+#: the three layout systems drillers write as three numbers
+LayoutSystem = Literal["dual_angle", "vls", "2ls"]
 
 
 # --- Dual Angle <-> VLS ------------------------------------------------------------------------
@@ -247,14 +291,25 @@ class GripAxes:
         return np.cross(self.pin, self.psa)
 
 
-def _dual_angle_axes(da: DualAngle, pap: NDArray, radius_in: float, h: int) -> NDArray:
-    """(pin, psa) of a Dual Angle layout, stacked as rows."""
+def _axes_from_angles(t_pin: float, val: float, drill: float, pap: NDArray, h: int) -> NDArray:
+    """(pin, psa) stacked as rows: the pin t_pin (rad) from the PAP at VAL angle ``val`` (rad,
+    any real), the PSA at drilling angle ``drill`` (rad) from the pin->PAP line."""
     v, g = _val_frame(pap, h)
-    t_pin, val = da.pin_to_pap_in / radius_in, math.radians(da.val_angle_deg)
     pin = math.cos(t_pin) * pap + math.sin(t_pin) * (math.cos(val) * v + math.sin(val) * g)
     to_pap = _unit(pap - float(pap @ pin) * pin, "the pin->PAP direction (pin at the PAP)")
-    psa = _rotate(to_pap, pin, -h * math.radians(da.drilling_angle_deg))
+    psa = _rotate(to_pap, pin, -h * drill)
     return np.stack([pin, psa])
+
+
+def _dual_angle_axes(da: DualAngle, pap: NDArray, radius_in: float, h: int) -> NDArray:
+    """(pin, psa) of a Dual Angle layout, stacked as rows."""
+    return _axes_from_angles(
+        da.pin_to_pap_in / radius_in,
+        math.radians(da.val_angle_deg),
+        math.radians(da.drilling_angle_deg),
+        pap,
+        h,
+    )
 
 
 def _orthogonal_pair(pin: NDArray, psa: NDArray) -> NDArray:
@@ -263,13 +318,144 @@ def _orthogonal_pair(pin: NDArray, psa: NDArray) -> NDArray:
     return np.stack([pin, psa])
 
 
+# --- 2LS <-> Dual Angle <-> VLS ----------------------------------------------------------------
+def _drilling_angle_from_psa(pin_to_pap_in: float, psa_to_pap_in: float, radius_in: float) -> float:
+    """Drilling angle (rad, [0, pi]) of a pin and PSA at these distances from the PAP (the PSA
+    90 deg from the pin, on the standard Dual Angle side); ValueError when impossible."""
+    s = math.sin(pin_to_pap_in / radius_in)
+    cos_da = math.cos(psa_to_pap_in / radius_in) / s if s > _EPS else math.inf
+    if not abs(cos_da) <= 1.0:
+        raise ValueError(
+            f"pin_to_pap = {fmt(pin_to_pap_in)} in and psa_to_pap = {fmt(psa_to_pap_in)} in are "
+            f"impossible on a ball of radius {fmt(radius_in)} in with the PSA 90 deg from the "
+            f"pin: need |cos(psa_to_pap / R)| <= sin(pin_to_pap / R) (got "
+            f"{abs(math.cos(psa_to_pap_in / radius_in)):.6g} vs {s:.6g})"
+        )
+    return math.acos(cos_da)
+
+
+def _grip_center_bearing(pap: NDArray, h: int) -> tuple[float, float]:
+    """(beta, rho): the direction of the center of grip seen from the PAP, measured like the VAL
+    angle (rad), and the length of its tangent component (A, B) = (v . z_g, g . z_g)."""
+    v, g = _val_frame(pap, h)
+    a, b = float(v[2]), float(g[2])
+    return math.atan2(b, a), math.hypot(a, b)
+
+
+def _two_ls_val(tls: TwoLS, pap: NDArray, radius_in: float, h: int) -> float:
+    """VAL angle (rad, in (-pi, pi]) of a 2LS pin; ValueError when the two circles miss."""
+    t_pin, t_grip = tls.pin_to_pap_in / radius_in, tls.pin_to_grip_center_in / radius_in
+    beta, rho = _grip_center_bearing(pap, h)
+    denom = math.sin(t_pin) * rho
+    if not denom > _EPS:
+        raise ValueError(
+            f"2LS is undefined for pin_to_pap_in = {fmt(tls.pin_to_pap_in)} in with this PAP: the "
+            "pin must be off the PAP and its antipode and the PAP off the center of grip and its "
+            "antipode, else pin_to_grip_center_in does not locate the pin"
+        )
+    x = (math.cos(t_grip) - math.cos(t_pin) * float(pap[2])) / denom
+    if not abs(x) <= 1.0 + 1e-12:
+        raise ValueError(
+            f"2LS {fmt(tls.pin_to_pap_in)} x {fmt(tls.psa_to_pap_in)} x "
+            f"{fmt(tls.pin_to_grip_center_in)} in is impossible for this PAP: no point is "
+            f"pin_to_pap_in = {fmt(tls.pin_to_pap_in)} in from the PAP and "
+            f"pin_to_grip_center_in = {fmt(tls.pin_to_grip_center_in)} in from the center of grip "
+            f"on a ball of radius {fmt(radius_in)} in (the circles miss: {x:.6g} is outside "
+            "[-1, 1])"
+        )
+    omega = math.acos(_clip(x))
+    val = beta - omega if tls.pin_toward_fingers else beta + omega
+    return math.atan2(math.sin(val), math.cos(val))
+
+
+def _pap_vector(pap: PAP, radius_in: float) -> tuple[NDArray, int]:
+    return pap.point(radius_in), handedness_sign(pap.handedness)
+
+
+def two_ls_to_dual_angle(tls: TwoLS, pap: PAP, radius_in: float) -> DualAngle:
+    """Dual Angle numbers of a 2LS layout for the bowler's ``pap`` on a ball of radius
+    ``radius_in`` (in); ValueError when no such layout exists or its VAL angle falls outside
+    [0, 180] deg (the pin on the far side of the VAL, which 2LS can describe and Dual Angle
+    cannot)."""
+    p, h = _pap_vector(pap, radius_in)
+    val = _two_ls_val(tls, p, radius_in, h)
+    drill = _drilling_angle_from_psa(tls.pin_to_pap_in, tls.psa_to_pap_in, radius_in)
+    if val < -1e-12:
+        raise ValueError(
+            f"2LS {fmt(tls.pin_to_pap_in)} x {fmt(tls.psa_to_pap_in)} x "
+            f"{fmt(tls.pin_to_grip_center_in)} in puts the pin at VAL angle "
+            f"{math.degrees(val):.6g} deg (on the far side of the VAL from the grip); Dual Angle "
+            "VAL angles are in [0, 180] deg"
+        )
+    return DualAngle(
+        drilling_angle_deg=math.degrees(drill),
+        pin_to_pap_in=tls.pin_to_pap_in,
+        val_angle_deg=min(180.0, math.degrees(max(val, 0.0))),
+    )
+
+
+def dual_angle_to_two_ls(da: DualAngle, pap: PAP, radius_in: float) -> TwoLS:
+    """2LS numbers of a Dual Angle layout for the bowler's ``pap`` (radius ``radius_in``, in)."""
+    p, h = _pap_vector(pap, radius_in)
+    pin = _dual_angle_axes(da, p, radius_in, h)[0]
+    beta, _ = _grip_center_bearing(p, h)
+    val = math.radians(da.val_angle_deg)
+    psa = radius_in * math.acos(
+        _clip(
+            math.sin(da.pin_to_pap_in / radius_in) * math.cos(math.radians(da.drilling_angle_deg))
+        )
+    )
+    return TwoLS(
+        pin_to_pap_in=da.pin_to_pap_in,
+        psa_to_pap_in=psa,
+        pin_to_grip_center_in=radius_in * math.acos(_clip(float(pin[2]))),
+        pin_toward_fingers=math.sin(val - beta) <= 0.0,
+    )
+
+
+def two_ls_to_vls(tls: TwoLS, pap: PAP, radius_in: float) -> VLS:
+    """VLS numbers of a 2LS layout (through its Dual Angle form)."""
+    return dual_angle_to_vls(two_ls_to_dual_angle(tls, pap, radius_in), radius_in)
+
+
+def vls_to_two_ls(vls: VLS, pap: PAP, radius_in: float) -> TwoLS:
+    """2LS numbers of a VLS layout (through its Dual Angle form)."""
+    return dual_angle_to_two_ls(vls_to_dual_angle(vls, radius_in), pap, radius_in)
+
+
+def convert_layout(
+    layout: DualAngle | VLS | TwoLS, system: LayoutSystem, pap: PAP, radius_in: float
+) -> DualAngle | VLS | TwoLS:
+    """``layout`` written in ``system`` ('dual_angle', 'vls' or '2ls') for the bowler's ``pap``
+    on a ball of radius ``radius_in`` (in); ValueError when the target cannot describe it."""
+    if layout.system == system:
+        return layout
+    da = layout
+    if isinstance(layout, VLS):
+        da = vls_to_dual_angle(layout, radius_in)
+    elif isinstance(layout, TwoLS):
+        da = two_ls_to_dual_angle(layout, pap, radius_in)
+    assert isinstance(da, DualAngle)
+    if system == "dual_angle":
+        return da
+    if system == "vls":
+        return dual_angle_to_vls(da, radius_in)
+    if system == "2ls":
+        return dual_angle_to_two_ls(da, pap, radius_in)
+    raise ValueError(f"system = {system!r} must be one of 'dual_angle', 'vls', '2ls'")
+
+
 def grip_axes(ball: BowlerBall, layout: Layout, pap: PAP) -> GripAxes:
     """PAP, pin and PSA directions in the grip frame for ``layout`` drilled for ``pap``."""
     r, h = ball.radius_in, handedness_sign(pap.handedness)
     p = pap.point(r)
     if isinstance(layout, VLS):
         layout = vls_to_dual_angle(layout, r)
-    if isinstance(layout, DualAngle):
+    if isinstance(layout, TwoLS):
+        val = _two_ls_val(layout, p, r, h)
+        drill = _drilling_angle_from_psa(layout.pin_to_pap_in, layout.psa_to_pap_in, r)
+        pair = _axes_from_angles(layout.pin_to_pap_in / r, val, drill, p, h)
+    elif isinstance(layout, DualAngle):
         pair = _dual_angle_axes(layout, p, r, h)
     elif isinstance(layout, ExplicitPositions):
         pin = grip_point(layout.pin_over_in, layout.pin_up_in, r, pap.handedness)
@@ -409,17 +595,63 @@ def resolve_ball(
 
 
 # --- curated example library -------------------------------------------------------------------
-class _Sourced(SpecModel):
+from .catalog import Source, citation  # noqa: E402  (the catalog's source model)
+
+#: assumptions a catalog entry may declare for values its sources do not state
+AssumedField = Literal["weight_lb", "surface", "core_type", "coverstock"]
+
+
+class _Entry(SpecModel):
     id: str = Field(min_length=1, description="Library key.")
-    source: str = Field(min_length=1, description="Where the numbers come from.")
     illustrative: bool = Field(description="True: illustrative values, not from a source.")
-    note: str = Field(default="", description="Free text.")
+    note: str = Field(default="", description="Free text: conflicts, conversions, caveats.")
 
 
-class BallEntry(_Sourced):
-    """A ball spec in the example library."""
+class _Sourced(_Entry):
+    source: str = Field(min_length=1, description="Where the numbers come from (citation).")
 
+
+class BallEntry(_Entry):
+    """A ball spec in the curated catalog, with its release year and public sources."""
+
+    year: int | None = Field(
+        default=None,
+        ge=1900,
+        le=2100,
+        description="Release year; null when no source read gives it (year_note says why).",
+    )
+    year_note: str = Field(
+        min_length=1, description="What the year rests on, or what bounds the sources give."
+    )
+    sources: list[Source] = Field(
+        min_length=1, description="Public sources, the one the numbers are taken from first."
+    )
+    assumed: list[AssumedField] = Field(
+        default_factory=list,
+        description="Fields set by assumption because no source read states them (see note).",
+    )
     ball: BowlerBall
+
+    @model_validator(mode="after")
+    def _consistent(self) -> BallEntry:
+        """Sourced entries quote their numbers; declared assumptions are explained."""
+        if not self.illustrative and not self.sources[0].quote:
+            raise _spec_error(f"{self.id}: the first source needs a quote of the numbers")
+        if self.assumed and "assum" not in self.note:
+            raise _spec_error(f"{self.id}: assumed fields {self.assumed} need a note saying so")
+        return self
+
+    @property
+    def source(self) -> str:
+        """All sources as one text (``; ``-separated citation lines)."""
+        return "; ".join(citation(s) for s in self.sources)
+
+    @property
+    def from_reviews_only(self) -> bool:
+        """True when the numbers come from a review and no source is the maker's own sheet."""
+        return self.sources[0].kind == "review" and not any(
+            s.kind == "manufacturer" for s in self.sources
+        )
 
 
 class LayoutEntry(_Sourced):
@@ -441,10 +673,10 @@ class StaticWeightsEntry(_Sourced):
 
 
 class ExampleLibrary(SpecModel):
-    """The curated examples of ``bowlrec/bowling/data/balls.json``, keyed by id."""
+    """The curated catalog of ``bowlrec/bowling/data/balls.json``, keyed by id."""
 
     format: Literal["bowlrec-bowling-examples"]
-    version: Literal[1]
+    version: Literal[2]
     description: str = ""
     balls: list[BallEntry]
     layouts: list[LayoutEntry]
@@ -464,7 +696,7 @@ class ExampleLibrary(SpecModel):
         """The ball spec with id ``entry_id``."""
         return _find(self.balls, entry_id, "balls").ball
 
-    def layout(self, entry_id: str) -> DualAngle | VLS | ExplicitPositions | ExplicitAxes:
+    def layout(self, entry_id: str) -> DualAngle | VLS | TwoLS | ExplicitPositions | ExplicitAxes:
         """The layout with id ``entry_id``."""
         return _find(self.layouts, entry_id, "layouts").layout
 

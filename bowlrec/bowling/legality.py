@@ -6,14 +6,19 @@ Rule sets:
   2.460-2.800 in (low-RG minimum raised from 2.430 for balls approved from 1 Jul 2010);
   differential <= 0.060 in (from 1 Feb 2005); static weights <= 3 oz top/bottom and <= 3 oz
   side, finger or thumb (from 1 Aug 2018, for balls without a balance hole); balance holes
-  banned from 1 Aug 2020.
+  banned from 1 Aug 2020; at most 5 gripping holes (one per finger and one for the thumb, all
+  usable together) [USBC-GRIP], [GR20].
 * ``"paper_era"``: the ABC/WIBC rules Frohlich (2004) quotes: weight <= 16 lb; diameter
   8.500-8.595 in; RG 2.43-2.80 in; differential <= 0.080 in; static weights <= 3 oz top/bottom
-  and <= 1 oz side, finger or thumb; balance holes allowed.
+  and <= 1 oz side, finger or thumb; one balance hole allowed, at most 1 1/4 in in diameter,
+  beside at most 5 gripping holes (the pre-2020 USBC wording [USBC-GRIP]).
 
 Static-weight limits apply to balls heavier than 10 lb (the sources give no limits for lighter
 balls, so none are checked). Rules the spec sheet cannot show (hardness, surface roughness Ra,
-oil absorption, component density, marking tolerances) are not checked. Comparisons allow
+oil absorption, component density, marking tolerances) are not checked. [USBC-GRIP]:
+https://bowl.com/news/usbc-explains-specification-related-to-new-gripping-layouts (USBC,
+"USBC explains specification related to new gripping layouts"); [GR20]:
+https://grgrusbc.org/new-balance-hole-rules-now-in-effect. Comparisons allow
 ``LIMIT_SLACK_IN`` / ``LIMIT_SLACK_OZ`` of floating-point rounding (e.g. 2.74 + 0.06 in
 evaluates to 2.8000000000000003 in and is legal).
 """
@@ -67,6 +72,12 @@ class RuleSet:
     side_max_oz: float
     finger_thumb_max_oz: float
     balance_hole_allowed: bool
+    #: holes for gripping (fingers and thumb)
+    gripping_holes_max: int = 5
+    #: balance (weight) holes
+    balance_holes_max: int = 0
+    #: diameter of a balance hole where one is allowed (in)
+    balance_hole_diameter_max_in: float = 1.25
 
 
 RULE_SETS: dict[RuleSetName, RuleSet] = {
@@ -104,6 +115,7 @@ RULE_SETS: dict[RuleSetName, RuleSet] = {
         side_max_oz=1.0,
         finger_thumb_max_oz=1.0,
         balance_hole_allowed=True,
+        balance_holes_max=1,
     ),
 }
 
@@ -187,11 +199,29 @@ def _ball_violations(ball: BowlerBall, rs: RuleSet) -> Iterator[Violation]:
     )
 
 
-def _static_violations(
-    ball: BowlerBall, weights: StaticWeights, balance_hole: bool, rs: RuleSet
+def _hole_violations(
+    gripping: int | None, balance_diameters: tuple[float, ...], balance_hole: bool, rs: RuleSet
 ) -> Iterator[Violation]:
-    if balance_hole and not rs.balance_hole_allowed:
-        yield Violation("balance_hole", 1.0, 0.0, "holes", rs.name)
+    if gripping is not None:
+        yield from _max_rule("gripping_holes", gripping, rs.gripping_holes_max, "holes", 0.0, rs)
+    count = max(len(balance_diameters), 1 if balance_hole else 0)
+    allowed = rs.balance_holes_max if rs.balance_hole_allowed else 0
+    yield from _max_rule("balance_hole", count, allowed, "holes", 0.0, rs)
+    if allowed:
+        for d in balance_diameters:
+            yield from _max_rule(
+                "balance_hole_diameter",
+                d,
+                rs.balance_hole_diameter_max_in,
+                "in",
+                LIMIT_SLACK_IN,
+                rs,
+            )
+
+
+def _static_violations(
+    ball: BowlerBall, weights: StaticWeights, rs: RuleSet
+) -> Iterator[Violation]:
     if not ball.weight_lb > _STATIC_WEIGHT_MIN_LB:
         return
     s = LIMIT_SLACK_OZ
@@ -210,17 +240,24 @@ def check_legality(
     *,
     static_weights: StaticWeights | None = None,
     balance_hole: bool = False,
+    gripping_holes: int | None = None,
+    balance_hole_diameters_in: tuple[float, ...] = (),
 ) -> LegalityReport:
-    """Check ``ball`` (and its static weights after drilling, if given) against a rule set.
+    """Check ``ball`` (and its static weights and holes after drilling, if given) against a
+    rule set. ``balance_hole``: the ball has (at least) one balance hole;
+    ``balance_hole_diameters_in``: the diameter of each balance hole (in); ``gripping_holes``:
+    the number of finger and thumb holes (none: not checked).
 
     Rules (names as reported): weight_max, diameter_min, diameter_max, rg_min (low RG),
-    rg_max (high RG = RG + diff), differential_max, balance_hole, top_bottom_weight,
-    side_weight, finger_thumb_weight (the last three on |reading|, balls > 10 lb only).
+    rg_max (high RG = RG + diff), differential_max, gripping_holes, balance_hole (count),
+    balance_hole_diameter, top_bottom_weight, side_weight, finger_thumb_weight (the last three
+    on |reading|, balls > 10 lb only).
     """
     rs = _rule_set(rules)
     found = list(_ball_violations(ball, rs))
-    if static_weights is not None or balance_hole:
-        found += _static_violations(ball, static_weights or StaticWeights(), balance_hole, rs)
+    found += _hole_violations(gripping_holes, tuple(balance_hole_diameters_in), balance_hole, rs)
+    if static_weights is not None:
+        found += _static_violations(ball, static_weights, rs)
     return LegalityReport(ball_name=ball.name, rule_set=rs.name, violations=tuple(found))
 
 
@@ -231,10 +268,20 @@ def ensure_legal(
     static_weights: StaticWeights | None = None,
     balance_hole: bool = False,
     allow_illegal: bool = False,
+    gripping_holes: int | None = None,
+    balance_hole_diameters_in: tuple[float, ...] = (),
 ) -> LegalityReport:
-    """The legality report; raises :class:`IllegalBallError` for an illegal ball unless
-    ``allow_illegal`` is True (then the report, with its violations, is returned)."""
-    report = check_legality(ball, rules, static_weights=static_weights, balance_hole=balance_hole)
+    """The legality report (:func:`check_legality`); raises :class:`IllegalBallError` for an
+    illegal ball unless ``allow_illegal`` is True (then the report, with its violations, is
+    returned)."""
+    report = check_legality(
+        ball,
+        rules,
+        static_weights=static_weights,
+        balance_hole=balance_hole,
+        gripping_holes=gripping_holes,
+        balance_hole_diameters_in=balance_hole_diameters_in,
+    )
     if not report.is_legal and not allow_illegal:
         raise IllegalBallError(report)
     return report

@@ -1,6 +1,6 @@
-"""Oil depth -> friction: an explicit, calibratable mapping mu(film thickness, coverstock), and
-the friction map of an oil pattern in the form the kernel evaluates (a piecewise-constant grid,
-:class:`~bowlrec.spec.friction.GridFriction`).
+"""Oil depth -> friction: an explicit, calibratable mapping mu(film thickness, coverstock,
+surface), and the friction map of an oil pattern in the form the kernel evaluates (a
+piecewise-constant grid, :class:`~bowlrec.spec.friction.GridFriction`).
 
 **Oil depth** is the film thickness h (µm) of a grid cell: its oil volume over its area,
 h = V / (dx dy) (1 µL per m^2 = 0.001 µm; 1 µL on a board-foot of a 41.5 in lane, 0.3048 m x
@@ -10,24 +10,32 @@ mapping is a two-level model with an optional linear ramp, every number a parame
     s(h) = 0                      if h <= dry_at_or_below_um
          = 1                      if h >= oiled_at_or_above_um (and h > dry_at_or_below_um)
          = (h - h0) / (h1 - h0)   in between (h0 = dry_at_or_below_um, h1 = oiled_at_or_above_um)
-    mu(h, cover) = (1 - s(h)) dry_factor[cover] mu_dry + s(h) oil_factor[cover] mu_oil
+    mu(h, ball) = (1 - s(h)) D mu_dry + s(h) O mu_oil
 
-**Defaults reproduce the paper's two levels** (Frohlich 2004: 0.04 on oil, 0.20 dry): h0 = h1 = 0
-(any oil is "oiled"), every coverstock factor 1, so a cell is 0.04 if it carries oil and 0.20 if
-not, whatever the coverstock. Coverstock factors are for calibration (no published values; the
-Ball Motion Study names the cover as the biggest factor).
+with D = dry cover factor x dry surface factor and O = oil cover factor x oil surface factor of
+the ball (dimensionless). **The ball's factors** (``cover_model: "ranked"``, the default) come
+from a sourced ranking of coverstocks and sanding grits with assumed numbers
+(:mod:`bowlrec.bowling.surface`, ``docs/coverstock.md``); the reference ball, reactive_solid at
+1000 grit (and a ball given without coverstock or surface), has D = O = 1 and sees mu_dry and
+mu_oil unchanged. Entries of ``dry_factor`` / ``oil_factor`` replace a coverstock's ranked
+factor; the grit model's numbers are fields too. ``cover_model: "none"`` makes every factor 1
+except those entries: the same friction for every ball.
+
+**Defaults reproduce the paper's two levels** for the reference ball (Frohlich 2004: 0.04 on
+oil, 0.20 dry): h0 = h1 = 0 (any oil is "oiled"), so a cell is 0.04 if it carries oil and 0.20
+if not. The paper's own scenes (:mod:`bowlrec.paper`) do not go through this mapping.
 
 **Positions outside the pattern's grid**: dry beyond the oil (x past its end, boards without
 oil); behind the foul line (x < 0) and beyond the gutters (y < 0, y > width) the cells at the
 lane's edge continue, so the lane's boundary adds no break point; break points at or beyond
 the head pin (x >= length_m) are dropped (the run ends there). The grid is then minimal
-(:func:`~bowlrec.spec.friction_grid.simplify_grid`): under the default mapping a pattern has
-only as many break points as its oiled/dry boundary needs.
+(:func:`~bowlrec.spec.friction_grid.simplify_grid`): a pattern has only as many break points as
+its oiled/dry boundary needs.
 """
 
 from __future__ import annotations
 
-from typing import Literal, get_args
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,12 +47,30 @@ from bowlrec.spec.friction_grid import simplify_grid
 from bowlrec.spec.lane import Lane
 
 from .oil import KegelPattern, OilGrid, RectanglePattern, oil_grid
+from .surface import (
+    COVER_FACTORS,
+    COVERSTOCKS,
+    GRIT_EXPONENT_DRY,
+    GRIT_EXPONENT_OIL,
+    GRIT_MAX,
+    GRIT_MIN,
+    POLISHED_DRY,
+    POLISHED_OIL,
+    REFERENCE_GRIT,
+    Coverstock,
+    Surface,
+    check_surface,
+    grit_factor,
+    surface_text,
+)
 from .units import BOARDS, FT_M, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
 
 __all__ = [
     "COVERSTOCKS",
     "Coverstock",
+    "CoverModel",
     "OilFrictionMapping",
+    "Surface",
     "film_thickness_um",
     "mirror_friction",
     "mu_of_film",
@@ -55,22 +81,25 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-#: coverstock classes (domain notes §8)
-Coverstock = Literal[
-    "polyester", "urethane", "reactive_solid", "reactive_pearl", "reactive_hybrid", "particle"
-]
-COVERSTOCKS: tuple[str, ...] = get_args(Coverstock)
+#: "ranked": the sourced ranking's cover and surface factors; "none": every factor 1
+CoverModel = Literal["ranked", "none"]
 
 _USBC_WIDTH_M = LANE_WIDTH_IN * IN_M
 _LANE_LENGTH_M = LANE_LENGTH_FT * FT_M
 
 
 class OilFrictionMapping(SpecModel):
-    """mu(film thickness, coverstock); see the module docstring for the formula. The defaults
-    give the paper's two levels: 0.04 wherever there is oil, 0.20 elsewhere."""
+    """mu(film thickness, coverstock, surface); see the module docstring for the formula. The
+    defaults give the paper's two levels, 0.04 wherever there is oil and 0.20 elsewhere, for the
+    reference ball (reactive_solid at 1000 grit), and the ranked cover and surface factors for
+    every other ball."""
 
-    mu_dry: NonNegativeFloat = Field(default=0.20, description="Friction on a dry lane (>= 0).")
-    mu_oil: NonNegativeFloat = Field(default=0.04, description="Friction on full oil (>= 0).")
+    mu_dry: NonNegativeFloat = Field(
+        default=0.20, description="Friction on a dry lane (>= 0), for the reference ball."
+    )
+    mu_oil: NonNegativeFloat = Field(
+        default=0.04, description="Friction on full oil (>= 0), for the reference ball."
+    )
     dry_at_or_below_um: NonNegativeFloat = Field(
         default=0.0, description="Film thickness (µm) at or below which the lane is dry (>= 0)."
     )
@@ -79,11 +108,49 @@ class OilFrictionMapping(SpecModel):
         description="Film thickness (µm) from which the lane is fully oiled (>= the dry one); "
         "mu is linear in between.",
     )
+    cover_model: CoverModel = Field(
+        default="ranked",
+        description="'ranked': coverstock and surface grit scale the friction by the sourced "
+        "ranking's assumed factors (docs/coverstock.md; reactive_solid at 1000 grit: factor 1); "
+        "'none': every factor is 1 except the dry_factor / oil_factor entries.",
+    )
     dry_factor: dict[Coverstock, PositiveFloat] = Field(
-        default_factory=dict, description="Per coverstock: multiplies mu_dry (1 if absent)."
+        default_factory=dict,
+        description="Per coverstock: multiplies mu_dry, replacing the ranked factor "
+        "(dimensionless).",
     )
     oil_factor: dict[Coverstock, PositiveFloat] = Field(
-        default_factory=dict, description="Per coverstock: multiplies mu_oil (1 if absent)."
+        default_factory=dict,
+        description="Per coverstock: multiplies mu_oil, replacing the ranked factor "
+        "(dimensionless).",
+    )
+    grit_reference: PositiveFloat = Field(
+        default=float(REFERENCE_GRIT),
+        ge=GRIT_MIN,
+        le=GRIT_MAX,
+        description=f"Grit whose surface factors are 1, in [{GRIT_MIN}, {GRIT_MAX}].",
+    )
+    grit_exponent_oil: NonNegativeFloat = Field(
+        default=GRIT_EXPONENT_OIL.assumed,
+        le=1.0,
+        description="a in (grit / grit_reference) ** -a, the surface factor on mu_oil, in "
+        f"[0, 1] (plausible {GRIT_EXPONENT_OIL.low:g}-{GRIT_EXPONENT_OIL.high:g}).",
+    )
+    grit_exponent_dry: NonNegativeFloat = Field(
+        default=GRIT_EXPONENT_DRY.assumed,
+        le=1.0,
+        description="a in (grit / grit_reference) ** -a, the surface factor on mu_dry, in "
+        f"[0, 1] (plausible {GRIT_EXPONENT_DRY.low:g}-{GRIT_EXPONENT_DRY.high:g}).",
+    )
+    polished_oil_factor: PositiveFloat = Field(
+        default=POLISHED_OIL.assumed,
+        description="Surface factor of a polished ball on mu_oil (> 0; plausible "
+        f"{POLISHED_OIL.low:g}-{POLISHED_OIL.high:g}).",
+    )
+    polished_dry_factor: PositiveFloat = Field(
+        default=POLISHED_DRY.assumed,
+        description="Surface factor of a polished ball on mu_dry (> 0; plausible "
+        f"{POLISHED_DRY.low:g}-{POLISHED_DRY.high:g}).",
     )
 
     @field_validator("oiled_at_or_above_um")
@@ -98,12 +165,39 @@ class OilFrictionMapping(SpecModel):
             )
         return v
 
-    def levels(self, coverstock: Coverstock | None = None) -> tuple[float, float]:
-        """(mu_dry, mu_oil) for a coverstock (None: no factor)."""
+    def cover_factors(self, coverstock: Coverstock | None) -> tuple[float, float]:
+        """(dry, oil) factors of a coverstock (dimensionless): the explicit entry, else the
+        ranked assumed factor ('ranked') or 1 ('none'); (1, 1) for None."""
         if coverstock is None:
-            return self.mu_dry, self.mu_oil
-        dry = self.dry_factor.get(coverstock, 1.0) * self.mu_dry
-        return dry, self.oil_factor.get(coverstock, 1.0) * self.mu_oil
+            return 1.0, 1.0
+        dry = oil = 1.0
+        if self.cover_model == "ranked":
+            ranked = COVER_FACTORS[coverstock]
+            dry, oil = ranked.dry.assumed, ranked.oil.assumed
+        return self.dry_factor.get(coverstock, dry), self.oil_factor.get(coverstock, oil)
+
+    def surface_factors(self, surface: Surface | None) -> tuple[float, float]:
+        """(dry, oil) factors of a surface (a grit number or 'polished'; dimensionless); (1, 1)
+        for None and under cover_model 'none'. ValueError naming the value and the allowed
+        grits for a grit outside [GRIT_MIN, GRIT_MAX]."""
+        if surface is None or self.cover_model == "none":
+            return 1.0, 1.0
+        check_surface(surface)
+        if surface == "polished":
+            return self.polished_dry_factor, self.polished_oil_factor
+        grit = float(surface)
+        return (
+            grit_factor(grit, self.grit_exponent_dry, self.grit_reference),
+            grit_factor(grit, self.grit_exponent_oil, self.grit_reference),
+        )
+
+    def levels(
+        self, coverstock: Coverstock | None = None, surface: Surface | None = None
+    ) -> tuple[float, float]:
+        """(mu_dry, mu_oil) for a ball's coverstock and surface (None: no factor)."""
+        cover_dry, cover_oil = self.cover_factors(coverstock)
+        surface_dry, surface_oil = self.surface_factors(surface)
+        return cover_dry * surface_dry * self.mu_dry, cover_oil * surface_oil * self.mu_oil
 
 
 def oiled_fraction(film_um: ArrayLike, mapping: OilFrictionMapping) -> Array:
@@ -119,10 +213,12 @@ def mu_of_film(
     film_um: ArrayLike,
     mapping: OilFrictionMapping | None = None,
     coverstock: Coverstock | None = None,
+    surface: Surface | None = None,
 ) -> Array:
-    """Friction of film thicknesses (µm; a scalar or an array) for a coverstock."""
+    """Friction of film thicknesses (µm; a scalar or an array) for a ball's coverstock and
+    surface (None: no factor)."""
     m = mapping or OilFrictionMapping()
-    dry, oil = m.levels(coverstock)
+    dry, oil = m.levels(coverstock, surface)
     s = oiled_fraction(np.asarray(film_um, dtype=np.float64), m)
     return dry * (1.0 - s) + oil * s  # exactly mu_dry at s = 0 and mu_oil at s = 1
 
@@ -156,31 +252,39 @@ def pattern_friction(
     lane_width_m: float,
     length_m: float = _LANE_LENGTH_M,
     coverstock: Coverstock | None = None,
+    surface: Surface | None = None,
     mapping: OilFrictionMapping | None = None,
 ) -> GridFriction:
     """The friction map of an oil pattern on a lane ``lane_width_m`` wide and ``length_m`` long
-    (m), for a coverstock (None: no coverstock factor), under ``mapping`` (default: the
-    paper's two levels). Use the same width for the Lane (see :func:`pattern_lane`)."""
+    (m), for a ball's coverstock and surface (a grit number or 'polished'; None: no factor),
+    under ``mapping`` (default: the paper's two levels for the reference ball, ranked factors
+    for the others). Use the same width for the Lane (see :func:`pattern_lane`). ValueError
+    for a grit outside the surface model's range."""
     m = mapping or OilFrictionMapping()
     grid = oil_grid(pattern)
     film = np.pad(film_thickness_um(grid, lane_width_m), 1)  # dry all around the grid
-    mu = mu_of_film(film, m, coverstock)
+    mu = mu_of_film(film, m, coverstock, surface)
     xe, xs = _clamped(grid.x_edges_ft * FT_M, 0.0, length_m)
     ye, ys = _clamped(_board_edges_m(grid.board_edges, lane_width_m), 0.0, lane_width_m)
     g = simplify_grid(xe, ye, mu[xs, ys])
-    cover = coverstock or "no coverstock factor"
     return GridFriction(
         x_edges_m=g.x_edges_m.tolist(),
         y_edges_m=g.y_edges_m.tolist(),
         mu=g.mu.tolist(),
-        source=f"oil pattern {pattern.name!r}, {cover}, {_mapping_text(m)}",
+        source=f"oil pattern {pattern.name!r}, {_mapping_text(m, coverstock, surface)}",
         pattern=pattern.name,
     )
 
 
-def _mapping_text(m: OilFrictionMapping) -> str:
-    """Short description of a mapping for GridFriction.source."""
-    text = f"mu_oil {fmt(m.mu_oil)} / mu_dry {fmt(m.mu_dry)}"
+def _mapping_text(
+    m: OilFrictionMapping, coverstock: Coverstock | None, surface: Surface | None
+) -> str:
+    """Short description of a mapping and ball for GridFriction.source."""
+    ball = " at ".join(x for x in (coverstock or "no coverstock", surface_text(surface)) if x)
+    dry, oil = m.levels(coverstock, surface)
+    text = f"{ball}, mu_oil {oil:.4g} / mu_dry {dry:.4g}"
+    if m.cover_model == "none":
+        text += " (no cover model)"
     if m.oiled_at_or_above_um > 0:
         text += f", ramp {fmt(m.dry_at_or_below_um)}-{fmt(m.oiled_at_or_above_um)} um"
     return text
@@ -192,12 +296,19 @@ def pattern_lane(
     width_m: float = _USBC_WIDTH_M,
     length_m: float = _LANE_LENGTH_M,
     coverstock: Coverstock | None = None,
+    surface: Surface | None = None,
     mapping: OilFrictionMapping | None = None,
 ) -> Lane:
-    """A :class:`~bowlrec.spec.Lane` (default 60 ft x 41.5 in, USBC) oiled with ``pattern``;
-    pass width_m=42 * 0.0254 for the paper's lane."""
+    """A :class:`~bowlrec.spec.Lane` (default 60 ft x 41.5 in, USBC) oiled with ``pattern``,
+    its friction for a ball's coverstock and surface (:func:`pattern_friction`); pass
+    width_m=42 * 0.0254 for the paper's lane."""
     friction = pattern_friction(
-        pattern, lane_width_m=width_m, length_m=length_m, coverstock=coverstock, mapping=mapping
+        pattern,
+        lane_width_m=width_m,
+        length_m=length_m,
+        coverstock=coverstock,
+        surface=surface,
+        mapping=mapping,
     )
     return Lane(length_m=length_m, width_m=width_m, friction=friction)
 

@@ -25,21 +25,38 @@ ball's geometric center and with boards counted from the bowling hand's gutter
   with the same zero and signs as the delivery's
   (:func:`~bowlrec.bowling.delivery.axis_angles_deg`).
 
-Between samples, positions and velocities come from the cubic Hermite interpolant of
-(position, velocity) on each step, omega from linear interpolation. Quantities at the pins are
-None unless the ball reaches the head-pin line; the arrows board is None unless it reaches 15 ft.
+* Specto's windows, as Kegel's Specto defines its terms (Specto Bowling, "Specto terms",
+  https://www.spectobowling.com/specto-terms), beside the exact values at 60 ft: launch speed,
+  "the average speed of the ball in the first 3 feet of readings" (from the release point);
+  launch angle, "the angle the ball traveled the first 10 feet"; entry angle, "the angle of
+  the ball between 51 and 55 feet"; entry board, "ball position at 59.5 feet"; entry speed,
+  "the average speed of the ball between 57 and 59.5 feet"; impact angle, "the angle of the
+  ball between 57 and 59.5 feet". An angle over a window is that of the chord between its ends
+  (the mean of dy/dx over it), a speed over a window the chord length over the time between
+  its ends.
+
+The path comes from either of two sources, with the same definitions:
+
+* the kernel's observation events (:mod:`bowlrec.core.observe`), for any run, summary-only
+  included, simulated with :func:`report_stations` and turning points observed
+  (:func:`observed_run`): exact states on the dense output at those x;
+* the recorded samples: between samples, positions and velocities from the cubic Hermite
+  interpolant of (position, velocity) on each step, omega from linear interpolation.
+
+Quantities at the pins are None unless the ball reaches the head-pin line; the arrows board and
+the windows are None unless the ball reaches them.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from bowlrec.core.codes import ROLLING
+from bowlrec.core.codes import OBS_END, OBS_RELEASE, OBS_TURN
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import SamplesRequiredError
 
@@ -47,10 +64,25 @@ from .delivery import axis_angles_deg
 from .lane import BowlerLane, Handedness
 from .units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
-__all__ = ["BowlerReport", "bowler_report"]
+__all__ = [
+    "ENTRY_FT",
+    "LAUNCH_ANGLE_FT",
+    "LAUNCH_SPEED_FT",
+    "BowlerReport",
+    "bowler_report",
+    "observed_run",
+    "report_stations",
+]
 
 #: bisection steps when solving x(s) = X on one step (2**-60 of the step: below rounding)
 _BISECTIONS = 60
+#: Specto's launch windows from the release point (ft): speed over 3, angle over 10
+LAUNCH_SPEED_FT = 3.0
+LAUNCH_ANGLE_FT = 10.0
+#: the stations (ft from the foul line) of Specto's entry windows
+ENTRY_FT = (51.0, 55.0, 57.0, 59.5)
+#: how close to the last state a station counts as the pins (m)
+_AT_END_M = 1e-9
 
 
 @dataclass(frozen=True)
@@ -79,6 +111,12 @@ class BowlerReport:
     axis_tilt_pins_deg: float | None
     hook_boards: float | None
     slide_ft: float | None
+    specto_launch_speed_mph: float | None
+    specto_launch_angle_deg: float | None
+    specto_entry_angle_deg: float | None
+    specto_entry_board: float | None
+    specto_entry_speed_mph: float | None
+    specto_impact_angle_deg: float | None
 
     def to_dict(self) -> dict[str, Any]:
         """All fields by name (plain floats, None and strings)."""
@@ -87,8 +125,9 @@ class BowlerReport:
 
 @dataclass(frozen=True)
 class _State:
-    """The center's position (m), velocity (m/s) and omega (rad/s) at one instant."""
+    """The time (s), the center's position (m), velocity (m/s) and omega (rad/s)."""
 
+    t: float
     x: float
     y: float
     vx: float
@@ -96,23 +135,59 @@ class _State:
     omega: tuple[float, float, float]
 
 
+def report_stations(lane: BowlerLane, release_x_m: float) -> list[float]:
+    """The x stations (m, ascending) a report reads: the ends of Specto's windows and the
+    arrows (the release point itself and the pins come with every observed run)."""
+    rel = [release_x_m + LAUNCH_SPEED_FT * FT_M, release_x_m + LAUNCH_ANGLE_FT * FT_M]
+    fixed = [ARROWS_FT, *ENTRY_FT]
+    xs = {x for x in rel if x < lane.length_m} | {lane.ft_to_x_m(ft) for ft in fixed}
+    return sorted(x for x in xs if x > release_x_m)
+
+
+def observed_run(plan: Any, lane: BowlerLane) -> Trajectory:
+    """Simulate ``plan`` (any recording) observing what :func:`bowler_report` reads."""
+    from bowlrec.api import run_plan
+
+    x0 = float(plan.position0_m[0])
+    return run_plan(plan, "auto", report_stations(lane, x0), turns=True)
+
+
 def bowler_report(
     trajectory: Trajectory, lane: BowlerLane, handedness: Handedness = "right"
 ) -> BowlerReport:
-    """The bowler's report of ``trajectory`` on ``lane`` by ``handedness`` (module doc).
+    """The bowler's report of ``trajectory`` on ``lane`` by ``handedness`` (module doc), from
+    its observations when it has them (:func:`observed_run`), else from its samples.
 
-    Raises :class:`~bowlrec.errors.SamplesRequiredError` for a run recorded without samples
-    (``record: summary``)."""
-    path = _Path.of(trajectory)
-    release = path.state(0, 0.0)
-    arrows = path.state_at_x(ARROWS_FT * FT_M)
-    breakpoint_ = path.state(*path.outermost(handedness))
-    pins = path.state_at_x(lane.length_m)
-    slide = _slide_m(trajectory)
+    Raises :class:`~bowlrec.errors.SamplesRequiredError` for a run with neither (a
+    summary-only run simulated without observations)."""
+    track: _Track = (
+        _Observed.of(trajectory) if _Observed.usable(trajectory) else _Path.of(trajectory)
+    )
+    release = track.release()
+    x0 = release.x
+    arrows = track.at_x(lane.ft_to_x_m(ARROWS_FT))
+    breakpoint_ = track.outermost(handedness)
+    pins = track.at_x(lane.length_m)
+    slide = trajectory.summary.slide_m
 
     def board(s: _State) -> float:
         return lane.y_to_board(s.y, handedness)
 
+    def chord_angle(a: _State | None, b: _State | None) -> float | None:
+        if a is None or b is None or not b.x > a.x:
+            return None
+        heading = math.degrees(math.atan2(b.y - a.y, b.x - a.x))
+        return heading if handedness == "right" else -heading
+
+    def chord_speed(a: _State | None, b: _State | None) -> float | None:
+        if a is None or b is None or not b.t > a.t:
+            return None
+        return math.hypot(b.x - a.x, b.y - a.y) / (b.t - a.t) / MPH_MPS
+
+    def at_ft(ft: float) -> _State | None:
+        return track.at_x(lane.ft_to_x_m(ft))
+
+    e59 = at_ft(59.5)
     rot0, tilt0 = _axis(release, handedness)
     rot_b, tilt_b = _axis(breakpoint_, handedness)
     rot_p, tilt_p = (None, None) if pins is None else _axis(pins, handedness)
@@ -139,17 +214,23 @@ def bowler_report(
         axis_tilt_pins_deg=tilt_p,
         hook_boards=None if pins is None else board(pins) - board(breakpoint_),
         slide_ft=None if slide is None else slide / FT_M,
+        specto_launch_speed_mph=chord_speed(release, track.at_x(x0 + LAUNCH_SPEED_FT * FT_M)),
+        specto_launch_angle_deg=chord_angle(release, track.at_x(x0 + LAUNCH_ANGLE_FT * FT_M)),
+        specto_entry_angle_deg=chord_angle(at_ft(51.0), at_ft(55.0)),
+        specto_entry_board=None if e59 is None else board(e59),
+        specto_entry_speed_mph=chord_speed(at_ft(57.0), e59),
+        specto_impact_angle_deg=chord_angle(at_ft(57.0), e59),
     )
 
 
-def _slide_m(trajectory: Trajectory) -> float | None:
-    """x (m) where the ball first rolls: the summary's slide_m, or the release point for a ball
-    that rolls from the release (the summary then reports no slide_to_roll event: None)."""
-    if trajectory.summary.slide_m is not None:
-        return trajectory.summary.slide_m
-    if int(trajectory.phase[0]) == ROLLING:
-        return float(trajectory.position_m[0, 0])
-    return None
+class _Track(Protocol):
+    """Where the center was: at release, where it reached an x, where it was outermost."""
+
+    def release(self) -> _State: ...
+
+    def at_x(self, x: float) -> _State | None: ...
+
+    def outermost(self, handedness: Handedness) -> _State: ...
 
 
 def _speed_mph(s: _State) -> float:
@@ -253,6 +334,7 @@ class _Path:
         """The state at fraction ``s`` in [0, 1] of step [i, i + 1] (s = 0: sample i)."""
         if s == 0.0:
             return _State(
+                float(self.t[i]),
                 float(self.pos[i, 0]),
                 float(self.pos[i, 1]),
                 float(self.vel[i, 0]),
@@ -263,6 +345,7 @@ class _Path:
         ax, ay = self._coeffs(i, 0), self._coeffs(i, 1)
         w = (1.0 - s) * self.omega[i] + s * self.omega[i + 1]
         return _State(
+            float(self.t[i]) + s * h,
             _poly(ax, s),
             _poly(ay, s),
             _dpoly(ax, s) / h,
@@ -270,7 +353,10 @@ class _Path:
             (float(w[0]), float(w[1]), float(w[2])),
         )
 
-    def state_at_x(self, x: float) -> _State | None:
+    def release(self) -> _State:
+        return self.state(0, 0.0)
+
+    def at_x(self, x: float) -> _State | None:
         """The state where the center first reaches ``x`` (m), or None if it never does or
         starts beyond it."""
         xs = self.pos[:, 0]
@@ -297,9 +383,12 @@ class _Path:
                 hi = mid
         return 0.5 * (lo + hi)
 
-    def outermost(self, handedness: Handedness) -> tuple[int, float]:
-        """(step, fraction) of the point farthest toward the bowling hand's gutter: minimum y
-        for a right-hander, maximum y for a left-hander."""
+    def outermost(self, handedness: Handedness) -> _State:
+        """The point farthest toward the bowling hand's gutter: minimum y for a right-hander,
+        maximum y for a left-hander."""
+        return self.state(*self._outermost(handedness))
+
+    def _outermost(self, handedness: Handedness) -> tuple[int, float]:
         sign = 1.0 if handedness == "right" else -1.0
         u = sign * self.pos[:, 1]
         k = int(np.argmin(u))
@@ -314,3 +403,56 @@ class _Path:
                 if us < best_u:
                     best, best_u = (i, s), us
         return best
+
+
+class _Observed:
+    """The kernel's observations of a run: release, stations, turning points, last state."""
+
+    def __init__(self, trajectory: Trajectory) -> None:
+        obs = trajectory.observations
+        self._release = next(_observed_state(o) for o in obs if o.station == OBS_RELEASE)
+        self._end = next(_observed_state(o) for o in obs if o.station == OBS_END)
+        self._pins = trajectory.summary.outcome == "pins"
+        self._stations = sorted(
+            (_observed_state(o) for o in obs if o.station >= 0), key=lambda s: s.x
+        )
+        self._turns = [_observed_state(o) for o in obs if o.station == OBS_TURN]
+
+    @staticmethod
+    def usable(trajectory: Trajectory) -> bool:
+        """The run was simulated observing (it has its release and last state)."""
+        kinds = {o.station for o in trajectory.observations}
+        return OBS_RELEASE in kinds and OBS_END in kinds
+
+    @classmethod
+    def of(cls, trajectory: Trajectory) -> _Observed:
+        return cls(trajectory)
+
+    def release(self) -> _State:
+        return self._release
+
+    def at_x(self, x: float) -> _State | None:
+        """The observed state at station ``x`` (the pins: the run's last state when it ended
+        there); None where the path did not reach it or it was not observed."""
+        if self._pins and abs(x - self._end.x) <= _AT_END_M:
+            return self._end
+        if x == self._release.x:
+            return self._release
+        for s in self._stations:
+            if s.x == x:
+                return s
+        return None
+
+    def outermost(self, handedness: Handedness) -> _State:
+        """The release, a turning point or the last state, whichever is farthest toward the
+        bowling hand's gutter (ties: the earliest)."""
+        sign = 1.0 if handedness == "right" else -1.0
+        candidates = [self._release, *sorted(self._turns, key=lambda s: s.t), self._end]
+        return min(candidates, key=lambda s: sign * s.y)
+
+
+def _observed_state(o: Any) -> _State:
+    return _State(
+        o.t_s, o.position_m[0], o.position_m[1], o.velocity_mps[0], o.velocity_mps[1],
+        o.omega_radps,
+    )  # fmt: skip

@@ -8,21 +8,24 @@ A file is read as a bowler scene when its top level has ``"format": "bowler"``
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from bowlrec.spec import Options, Scene
+from bowlrec.errors import IllegalBallError
+from bowlrec.spec import Lane, Options, Scene
 from bowlrec.spec._base import FiniteFloat, SpecModel, fmt, spec_error
 
 from .ball import BowlerBall, CenterOfMassMark, StaticWeights
 from .delivery import BowlerDelivery, hooking_delivery
+from .drilling import DrilledBall, GripDrilling, drill_ball
 from .lane import BowlerLane
-from .layout import PAP, DualAngle, Layout, resolve_ball
-from .legality import LegalityReport, RuleSetName, check_legality, ensure_legal
+from .layout import PAP, DualAngle, Layout
+from .legality import LegalityReport, RuleSetName, check_legality
 from .oil import KegelPattern, RectanglePattern, preset, preset_names
 from .oil_friction import OilFrictionMapping, pattern_friction
+from .shot import Shot
+from .surface import check_surface
 
 __all__ = ["BowlerScene"]
 
@@ -37,12 +40,6 @@ def _default_ball() -> BowlerBall:
         coverstock="reactive_pearl",
         surface=1500,
     )
-
-
-def _heading(takeoff_angle_deg: float) -> tuple[float, float, float]:
-    """Unit lane-frame direction of a release at ``takeoff_angle_deg`` (positive toward +y)."""
-    a = math.radians(takeoff_angle_deg)
-    return (math.cos(a), math.sin(a), 0.0)
 
 
 class BowlerScene(SpecModel):
@@ -69,7 +66,19 @@ class BowlerScene(SpecModel):
     )
     balance: StaticWeights | CenterOfMassMark | None = Field(
         default=None,
-        description="Static weights after drilling (oz) or a center-of-mass mark; none: balanced.",
+        description="Static weights measured after drilling (oz) or a center-of-mass mark; "
+        "measured values win over those computed from drilled holes; none: computed from "
+        "drilling if given, else balanced.",
+    )
+    drilling: GripDrilling | None = Field(
+        default=None,
+        description="The grip drilled into the ball (finger, thumb and extra holes); its mass "
+        "properties replace the spec sheet's (bowlrec drill). None: the spec sheet's ball.",
+    )
+    undrilled_cg: CenterOfMassMark | None = Field(
+        default=None,
+        description="With drilling: the undrilled ball's CG mark (over / up from the center of "
+        "grip, in) with its top weight (oz) as static_oz, from the spec sheet; none: balanced.",
     )
     roll_about_pap_deg: FiniteFloat = Field(
         default=0.0,
@@ -117,6 +126,11 @@ class BowlerScene(SpecModel):
                 f"pap.handedness = {self.pap.handedness!r} must equal delivery.handedness = "
                 f"{self.delivery.handedness!r} (one bowler throws the ball)"
             )
+        if self.oil_friction.cover_model == "ranked":
+            try:
+                check_surface(self.ball.surface, "ball.surface")
+            except ValueError as err:
+                raise spec_error(str(err)) from None
         if isinstance(self.pattern, str) and self.pattern not in preset_names():
             raise spec_error(
                 f"pattern = {self.pattern!r} is not a preset; presets: {', '.join(preset_names())}"
@@ -127,48 +141,63 @@ class BowlerScene(SpecModel):
         """The oil pattern as a model (a preset loaded by name)."""
         return preset(self.pattern) if isinstance(self.pattern, str) else self.pattern
 
-    def legality(self) -> LegalityReport:
-        """The ball checked against :attr:`rules` (static weights included when given)."""
+    def drilled(self) -> DrilledBall | None:
+        """The ball with :attr:`drilling` drilled into it (None without drilling)."""
+        if self.drilling is None:
+            return None
+        return drill_ball(
+            self.ball, self.layout, self.pap, self.drilling, undrilled_cg=self.undrilled_cg
+        )
+
+    def measured_weights(self, mass_kg: float) -> StaticWeights | None:
+        """:attr:`balance` as static weights (oz) of a ball of ``mass_kg`` (None: not given)."""
+        if isinstance(self.balance, CenterOfMassMark):
+            return self.balance.as_static_weights(mass_kg, self.ball.radius_in, self.pap.handedness)
+        return self.balance
+
+    def legality(self, drilled: DrilledBall | None = None) -> LegalityReport:
+        """The ball checked against :attr:`rules`: the drilled ball (its holes, and the
+        measured static weights where given, else the computed ones) with drilling, else the
+        spec sheet with the static weights when given. ``drilled``: :meth:`drilled`, when the
+        caller has it."""
+        drilled = self.drilled() if drilled is None and self.drilling is not None else drilled
+        if drilled is not None:
+            measured = self.measured_weights(drilled.mass_kg)
+            report = drilled.legality(self.rules, measured)
+            if self.balance_hole:
+                report = check_legality(
+                    drilled.drilled_spec(), self.rules,
+                    static_weights=drilled.static_weights(measured),
+                    gripping_holes=drilled.gripping_holes, balance_hole=True,
+                )  # fmt: skip
+            return report
         weights = self.balance if isinstance(self.balance, StaticWeights) else None
         return check_legality(
             self.ball, self.rules, static_weights=weights, balance_hole=self.balance_hole
         )
 
-    def to_scene(self) -> Scene:
-        """The physical scene. Raises IllegalBallError for an illegal ball unless
-        ``allow_illegal``."""
-        weights = self.balance if isinstance(self.balance, StaticWeights) else None
-        ensure_legal(
-            self.ball,
-            self.rules,
-            static_weights=weights,
-            balance_hole=self.balance_hole,
-            allow_illegal=self.allow_illegal,
-        )
+    def physical_lane(self) -> Lane:
+        """The physical lane with the pattern's friction for this ball's cover."""
         friction = pattern_friction(
             self.pattern_model(),
             lane_width_m=self.lane.width_m,
             length_m=self.lane.length_m,
             coverstock=self.ball.coverstock,
+            surface=self.ball.surface,
             mapping=self.oil_friction,
         )
         if isinstance(self.pattern, str):  # index runs by the preset's name
             friction = friction.model_copy(update={"pattern": self.pattern})
-        delivery = self.delivery.to_physical(self.lane)
-        ball = resolve_ball(
-            self.ball,
-            self.layout,
-            self.pap,
-            delivery.omega_radps,
-            roll_about_pap_deg=self.roll_about_pap_deg,
-            balance=self.balance,
-            travel_dir_lane=_heading(delivery.takeoff_angle_deg),
-        )
-        return Scene(
-            name=self.name,
-            description=self.description,
-            ball=ball,
-            lane=self.lane.to_physical(friction),
-            delivery=delivery,
-            options=self.options,
-        )
+        return self.lane.to_physical(friction)
+
+    def to_scene(self) -> Scene:
+        """The physical scene. With a target at the arrows the launch angle is solved so that
+        the path crosses it (:class:`~bowlrec.bowling.shot.Shot`). Raises IllegalBallError for
+        an illegal ball unless ``allow_illegal``, AimError for a target out of reach."""
+        drilled = self.drilled()
+        report = self.legality(drilled)
+        if not report.is_legal and not self.allow_illegal:
+            raise IllegalBallError(report)
+        shot = Shot(self, drilled=drilled)
+        launch = shot.launch_angle(self.delivery)
+        return shot.physical_scene(self.delivery.to_physical(self.lane, launch))

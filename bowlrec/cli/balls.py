@@ -144,11 +144,12 @@ def import_(
 
 @balls_app.command("add-examples")
 def add_examples(archive: ArchiveOption = None) -> None:
-    """Add the curated example library (spec sheets a pro shop would recognize, each with its
-    source) to the archive's ball library, named by their ids."""
+    """Add the curated ball catalog (spec sheets a pro shop would recognize, each with its
+    sources) to the archive's ball library, named by their ids; the note is the first source."""
+    from bowlrec.bowling.catalog import citation
     from bowlrec.bowling.layout import load_example_library
 
     store = _open(archive)
     for item in load_example_library().balls:
-        entry, created = store.balls.add(item.id, item.ball, note=item.source[:200])
+        entry, created = store.balls.add(item.id, item.ball, note=citation(item.sources[0]))
         typer.echo(f"{entry.ref} {'added' if created else 'unchanged'}")

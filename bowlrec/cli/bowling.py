@@ -1,5 +1,6 @@
 """Bowlers'-language commands: ``patterns`` (oil presets and their statistics), ``sheet`` (ball
-spec sheets of the curated library, with USBC legality), ``bowler-scene`` (a template file)."""
+spec sheets of the curated catalog, with USBC legality and sources), ``bowler-scene`` (a template
+file)."""
 
 from __future__ import annotations
 
@@ -60,26 +61,44 @@ def patterns(
 @app.command()
 def sheet(
     ball: Annotated[
-        str | None, typer.Argument(help="Ball id in the curated library; omitted: list ids.")
+        str | None, typer.Argument(help="Ball id in the curated catalog; omitted: list ids.")
     ] = None,
 ) -> None:
-    """A ball of the curated example library as a spec sheet, with its USBC legality."""
+    """A ball of the curated catalog as a spec sheet, with its USBC legality and its sources."""
+    from bowlrec.bowling.catalog import citation
     from bowlrec.bowling.layout import load_example_library
     from bowlrec.bowling.legality import RULE_SETS, check_legality
 
     lib = load_example_library()
     if ball is None:
         for entry in lib.balls:
-            typer.echo(f"{entry.id:38s} {entry.ball.name}")
+            year = "-" if entry.year is None else str(entry.year)
+            kind = " (illustrative)" if entry.illustrative else ""
+            b = entry.ball
+            typer.echo(
+                f"{entry.id:34s} {year:>4s}  {b.brand:14s} {b.name}, {b.weight_lb:g} lb{kind}"
+            )
         return
     entries = {e.id: e for e in lib.balls}
     if ball not in entries:
-        fail(f"no ball {ball!r} in the curated library; ids: {', '.join(entries)}")
+        fail(f"no ball {ball!r} in the curated catalog; ids: {', '.join(entries)}")
     entry = entries[ball]
     typer.echo(entry.ball.spec_sheet())
+    typer.echo(f"  Year            {'not found' if entry.year is None else entry.year}")
+    typer.echo(f"    ({entry.year_note})")
     for rules in RULE_SETS:
         typer.echo(str(check_legality(entry.ball, rules)))
-    typer.echo(f"source: {entry.source}")
+    typer.echo("sources:")
+    for source in entry.sources:
+        typer.echo(f"  - {citation(source)}")
+        if source.quote:
+            typer.echo(f'    "{source.quote}"')
+    if entry.from_reviews_only:
+        typer.echo("  specs as printed in reviews: the maker's own spec sheet was not found")
+    if entry.assumed:
+        typer.echo(f"assumed (not stated by the sources): {', '.join(entry.assumed)}")
+    if entry.note:
+        typer.echo(f"note: {entry.note}")
 
 
 @app.command("bowler-scene")

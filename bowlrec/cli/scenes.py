@@ -76,8 +76,6 @@ def simulate(
             parsed = _with_library_ball(parsed, ball, store or open_archive(archive))
     scene_obj, ball_ref = parsed.scene, parsed.ball_ref
     needs_samples = wants_samples(files, stream=connect is not None or spawn)
-    # a bowler-language scene reports in bowlers' terms, which reads the samples
-    keep_samples = needs_samples or parsed.bowler is not None
     if needs_samples and scene_obj.options.record == "summary":
         options = scene_obj.options.model_copy(update={"record": "steps"})
         scene_obj = scene_obj.model_copy(update={"options": options})
@@ -99,14 +97,14 @@ def simulate(
                 quiet,
                 _solve_unarchived,
                 scene_obj,
-                keep_samples,
+                needs_samples,
             )
             run_id, added = None, False
         from bowlrec.sinks import RunData
 
         run = RunData(scene_obj, scene_obj.resolve(), traj, run_id)
         lines = write_outputs(run, files, connect=connect, spawn=spawn)
-    bowler = _bowler_report(parsed, traj)
+    bowler = _bowler_report(parsed, scene_obj)
     if as_json:
         payload = summary_json(traj.summary)
         payload.update(
@@ -139,13 +137,16 @@ def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
         raise SceneInputError(f"--ball {ref}: {err}") from None
 
 
-def _bowler_report(parsed: Any, traj: Any) -> dict[str, Any] | None:
-    """The report in bowlers' terms for a bowler-language scene with samples, else None."""
-    if parsed.bowler is None or traj.n_samples == 0:
+def _bowler_report(parsed: Any, scene: Any) -> dict[str, Any] | None:
+    """The report in bowlers' terms for a bowler-language scene (a summary-only run of the same
+    plan observing what the report reads: the run's results are the same), else None."""
+    if parsed.bowler is None:
         return None
-    from bowlrec.bowling.report import bowler_report
+    from bowlrec.bowling.report import bowler_report, observed_run
 
     bs = parsed.bowler
+    plan = replace(scene.resolve(), record_mode=RECORD_SUMMARY)
+    traj = observed_run(plan, bs.lane)
     return bowler_report(traj, bs.lane, bs.delivery.handedness).to_dict()
 
 

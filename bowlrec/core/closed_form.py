@@ -27,6 +27,7 @@ from .codes import (
     EVENT_ZONE,
     N_COL,
     N_EVCOL,
+    N_OBSCOL,
     PHASE_ROLL,
     PHASE_SLIDE,
     STATUS_GUTTER,
@@ -198,4 +199,4 @@ def closed_form_kernel(  # type: ignore[no-untyped-def]
             y[3] = -R * y[8]
             phase = PHASE_ROLL
             ev, nev = push_event(ev, nev, t, EVENT_SLIDE_TO_ROLL, y, mu, phase)
-    return rec, 0, ev, nev, status, t, y, nseg, 0
+    return rec, 0, ev, nev, status, t, y, nseg, 0, np.empty((0, N_OBSCOL)), 0

@@ -88,6 +88,17 @@ EV_MU = 4  #: friction coefficient under the ball after the event
 EV_PHASE = 5  #: ROLLING or SLIDING after the event
 N_EVCOL = 6
 
+# ---- columns of the observation table a kernel fills (one row per observation) ----
+OBS_T = 0  #: time (s)
+OBS_WHAT = 1  #: index of the observed station x (0, 1, ...) or OBS_TURN
+OBS_STATE = 2  #: the N_STATE state components follow (see S_*)
+N_OBSCOL = OBS_STATE + N_STATE
+#: OBS_WHAT of a turning point of the path across the lane (v_y = 0)
+OBS_TURN = -1
+#: OBS_WHAT of the release state and of the run's last state (recorded whenever observing)
+OBS_RELEASE = -2
+OBS_END = -3
+
 # ---- what a run records (Plan.record_mode) ----
 RECORD_SUMMARY = 0  #: keep no samples, only events and the summary
 RECORD_STEPS = 1  #: one sample at every accepted integrator step (and every event)

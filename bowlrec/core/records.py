@@ -37,6 +37,8 @@ class RunSettings(NamedTuple):
     max_steps: int
     #: RECORD_SUMMARY, RECORD_STEPS or RECORD_RATE (codes)
     record_mode: int
+    #: observe the turning points of the path across the lane (v_y = 0; core.observe)
+    observe_turns: bool
 
 
 class FrictionLaw(NamedTuple):
@@ -104,3 +106,5 @@ class Advanced(NamedTuple):
     #: friction direction at its end
     ux_end: float
     uy_end: float
+    #: the last step holds an observation (core.observe); its dense output is in ``ws.rc``
+    observed: bool

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -21,6 +22,9 @@ from .codes import (
     EV_Y,
     EVENT_KINDS,
     N_STATE,
+    OBS_STATE,
+    OBS_T,
+    OBS_WHAT,
     PHASE_NAMES,
     PHASE_ROLL,
     RECORD_SUMMARY,
@@ -37,7 +41,7 @@ from .plan import Plan
 from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
 from .terms import INERTIA_TERMS, TORQUE_TERMS
-from .trajectory import Event, Summary, Trajectory
+from .trajectory import Event, Observation, Summary, Trajectory
 
 
 def initial_state(plan: Plan) -> np.ndarray:
@@ -109,29 +113,37 @@ def slip_layer(plan: Plan) -> float:
     return min(3e-4, max(1e-8, 1e4 * plan.rtol))
 
 
-def use_closed_form(plan: Plan) -> bool:
-    """A uniform ball needs no integrator when only the summary is asked for (exact rule)."""
+def use_closed_form(plan: Plan, observing: bool = False) -> bool:
+    """A uniform ball needs no integrator when only the summary is asked for (exact rule) and
+    nothing is observed on the way."""
     return (
-        plan.scalar_inertia
+        not observing
+        and plan.scalar_inertia
         and not plan.has_offset
         and plan.record_mode == RECORD_SUMMARY
         and plan.slide_to_roll == SLIDE_TO_ROLL_EXACT
     )
 
 
-def kernel_call(plan: Plan, method: str = "auto") -> tuple[Any, tuple[Any, ...]]:
+def kernel_call(
+    plan: Plan, method: str = "auto", stations_m: Sequence[float] = (), turns: bool = False
+) -> tuple[Any, tuple[Any, ...]]:
     """The compiled kernel for a plan and its prepared arguments: ``fn(*args)`` runs it.
 
     ``method``: "auto" (the closed form where it applies, else the integrator), "integrator"
-    or "closed_form". Separating the two lets callers time the kernel alone."""
+    or "closed_form". ``stations_m`` (x, m) and ``turns``: observations (integrator only; see
+    :func:`solve`). Separating the two lets callers time the kernel alone."""
+    observing = len(stations_m) > 0 or turns
     grid = (
         np.ascontiguousarray(plan.friction_x_edges_m, dtype=np.float64),
         np.ascontiguousarray(plan.friction_y_edges_m, dtype=np.float64),
         np.ascontiguousarray(plan.friction_mu, dtype=np.float64),
     )
-    if method == "closed_form" or (method == "auto" and use_closed_form(plan)):
+    if method == "closed_form" or (method == "auto" and use_closed_form(plan, observing)):
         if not (plan.scalar_inertia and not plan.has_offset):
             raise ValueError("the closed form needs a uniform ball (scalar inertia, no offset)")
+        if observing:
+            raise ValueError("observations need the integrator (method 'auto' or 'integrator')")
         args: tuple[Any, ...] = (
             kernel_params(plan),
             initial_state(plan),
@@ -155,8 +167,18 @@ def kernel_call(plan: Plan, method: str = "auto") -> tuple[Any, tuple[Any, ...]]
         float(plan.max_time_s),
         int(plan.max_steps),
         needs_orientation(plan),
+        _stations(stations_m),
+        bool(turns),
     )
     return simulate_kernel, args
+
+
+def _stations(stations_m: Sequence[float]) -> np.ndarray:
+    """Observed stations as the kernel takes them: finite and strictly ascending (m)."""
+    x = np.ascontiguousarray(stations_m, dtype=np.float64).reshape(-1)
+    if not (np.all(np.isfinite(x)) and np.all(np.diff(x) > 0.0)):
+        raise ValueError(f"stations_m = {x.tolist()} must be finite and strictly ascending (m)")
+    return x
 
 
 def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-arg]
@@ -165,12 +187,17 @@ def run_kernel(plan: Plan, method: str = "auto") -> tuple:  # type: ignore[type-
     return fn(*args)  # type: ignore[no-any-return]
 
 
-def solve(plan: Plan, method: str = "auto") -> Trajectory:
+def solve(
+    plan: Plan, method: str = "auto", stations_m: Sequence[float] = (), turns: bool = False
+) -> Trajectory:
     """Simulate one delivery from release to its outcome (pins, gutter, stop, loss of contact).
 
-    ``method`` as in :func:`run_kernel`."""
-    fn, args = kernel_call(plan, method)
-    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev = fn(*args)
+    ``method`` as in :func:`run_kernel`. ``stations_m``: x positions (m) where the state is
+    observed as the path reaches them (stations at or behind the release point are not), and
+    ``turns``: also where it turns across the lane (v_y = 0); both land in
+    ``Trajectory.observations`` and change no other result (:mod:`bowlrec.core.observe`)."""
+    fn, args = kernel_call(plan, method, stations_m, turns)
+    rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev, obs, nobs = fn(*args)
     par, y0, x_edges, y_edges, mu_grid = args[:5]  # the kernel does not change them
     rec = rec[:nrec]
     ev = ev[:nev]
@@ -225,7 +252,26 @@ def solve(plan: Plan, method: str = "auto") -> Trajectory:
         events=events,
         summary=summary,
         torques_Nm=torque_arrays,
+        observations=_observations(obs[:nobs]),
     )
+
+
+def _observations(rows: np.ndarray) -> list[Observation]:
+    """The kernel's observation table as Observations."""
+    return [
+        Observation(
+            t_s=float(r[OBS_T]),
+            station=int(r[OBS_WHAT]),
+            position_m=(float(r[OBS_STATE + S_X]), float(r[OBS_STATE + S_X + 1])),
+            velocity_mps=(float(r[OBS_STATE + S_VX]), float(r[OBS_STATE + S_VX + 1])),
+            omega_radps=(
+                float(r[OBS_STATE + S_WX]),
+                float(r[OBS_STATE + S_WX + 1]),
+                float(r[OBS_STATE + S_WX + 2]),
+            ),
+        )
+        for r in rows
+    ]
 
 
 def summarize(

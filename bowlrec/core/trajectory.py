@@ -68,6 +68,20 @@ class Summary:
         return asdict(self)
 
 
+@dataclass(frozen=True)
+class Observation:
+    """The state where the path reached an observed station x or turned across the lane
+    (v_y = 0); lane frame, SI units (:mod:`bowlrec.core.observe`)."""
+
+    t_s: float
+    #: index of the station in the requested stations, or OBS_TURN (-1) for a turning point,
+    #: OBS_RELEASE (-2) for the release, OBS_END (-3) for the run's last state (core.codes)
+    station: int
+    position_m: tuple[float, float]
+    velocity_mps: tuple[float, float]
+    omega_radps: tuple[float, float, float]
+
+
 @dataclass
 class Trajectory:
     """Samples of one delivery (lane frame, SI units) plus its events and summary.
@@ -95,6 +109,8 @@ class Trajectory:
     events: list[Event]
     summary: Summary
     torques_Nm: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: observed stations and turning points, in time order (empty unless asked for)
+    observations: list[Observation] = field(default_factory=list)
 
     @property
     def n_samples(self) -> int:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,9 +22,10 @@ from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quatern
 
 if TYPE_CHECKING:
     from .ball import Ball
+    from .delivery import Delivery
     from .scene import Scene
 
-__all__ = ["initial_rotation", "resolve_scene"]
+__all__ = ["initial_rotation", "release_state", "resolve_scene"]
 
 _RECORD_MODES = {"steps": RECORD_STEPS, "rate": RECORD_RATE, "summary": RECORD_SUMMARY}
 _SLIDE_TO_ROLL = {"exact": SLIDE_TO_ROLL_EXACT, "threshold": SLIDE_TO_ROLL_THRESHOLD}
@@ -41,18 +42,29 @@ def initial_rotation(ball: Ball) -> tuple[NDArray[np.float64], NDArray[np.float6
     return matrix_to_quaternion(r), r
 
 
-def resolve_scene(scene: Scene) -> Plan:
-    """The :class:`~bowlrec.core.plan.Plan` of a scene (all SI; see Plan for the conventions).
-
-    ``r_delta_body_m`` is the paper's r_Delta = -com_offset_m, expressed in the body frame.
-    """
-    ball, lane, delivery, options = scene.ball, scene.lane, scene.delivery, scene.options
+def release_state(ball: Ball, delivery: Delivery, lane_width_m: float) -> dict[str, Any]:
+    """The Plan fields the release fixes: orientation ``q0``, ``r_delta_body_m`` (the paper's
+    r_Delta = -com_offset_m in the body frame), ``position0_m``, ``velocity0_mps`` and
+    ``omega0_radps`` (SI). Replacing them in a Plan of the same ball, lane and options gives the
+    Plan of the new release (what aiming does, without rebuilding the friction grid)."""
     q0, r0 = initial_rotation(ball)
     com_offset = np.asarray(ball.com_offset_m, dtype=np.float64)
     r_delta_body = -(r0.T @ com_offset) + 0.0  # + 0.0 turns -0.0 into 0.0
-    position0 = (0.0, 0.5 * lane.width_m) if delivery.position_m is None else delivery.position_m
+    position0 = (0.0, 0.5 * lane_width_m) if delivery.position_m is None else delivery.position_m
     angle = math.radians(delivery.takeoff_angle_deg)
     velocity0 = (delivery.speed_mps * math.cos(angle), delivery.speed_mps * math.sin(angle))
+    return {
+        "q0": q0,
+        "r_delta_body_m": r_delta_body,
+        "position0_m": np.asarray(position0, dtype=np.float64),
+        "velocity0_mps": np.asarray(velocity0, dtype=np.float64),
+        "omega0_radps": np.asarray(delivery.omega_radps, dtype=np.float64),
+    }
+
+
+def resolve_scene(scene: Scene) -> Plan:
+    """The :class:`~bowlrec.core.plan.Plan` of a scene (all SI; see Plan for the conventions)."""
+    ball, lane, delivery, options = scene.ball, scene.lane, scene.delivery, scene.options
     grid = clip_to_lane(
         build_friction_grid(lane.friction, lane.width_m), lane.length_m, lane.width_m
     )
@@ -60,11 +72,7 @@ def resolve_scene(scene: Scene) -> Plan:
         mass_kg=float(ball.mass_kg),
         radius_m=float(ball.radius_m),
         inertia_per_mass_m2=np.asarray(ball.rg_m, dtype=np.float64) ** 2,
-        r_delta_body_m=r_delta_body,
-        q0=q0,
-        position0_m=np.asarray(position0, dtype=np.float64),
-        velocity0_mps=np.asarray(velocity0, dtype=np.float64),
-        omega0_radps=np.asarray(delivery.omega_radps, dtype=np.float64),
+        **release_state(ball, delivery, lane.width_m),
         lane_length_m=float(lane.length_m),
         lane_width_m=float(lane.width_m),
         friction_x_edges_m=grid.x_edges_m,

@@ -1,0 +1,237 @@
+"""``aim``: the shot of a bowler scene that enters the pocket (entry board, or board and angle)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from ._app import app
+from ._common import JsonOption, fail, parse_scene_or_exit
+
+VaryOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--vary",
+        "-v",
+        help="Free variable: target, launch, laydown or speed. Once: solve the entry board; "
+        "twice: the first for the entry angle, the second for the board. Default: target.",
+    ),
+]
+PocketBoardOption = Annotated[
+    float | None, typer.Option("--pocket-board", help="Entry board to aim at (default 17.5).")
+]
+BoardWindowOption = Annotated[
+    tuple[float, float] | None,
+    typer.Option("--board-window", help="Pocket window, lowest and highest board (17 18)."),
+]
+AngleOption = Annotated[
+    float | None, typer.Option("--angle", help="Entry angle to aim at, deg (default 5).")
+]
+AngleWindowOption = Annotated[
+    tuple[float, float] | None,
+    typer.Option("--angle-window", help="Entry angle window, deg (4 6)."),
+]
+
+
+def pocket_from_options(
+    board: float | None,
+    board_window: tuple[float, float] | None,
+    angle: float | None,
+    angle_window: tuple[float, float] | None,
+) -> Any:
+    """The pocket the options describe (the default where an option is not given)."""
+    from bowlrec.bowling.pocket import POCKET, Pocket
+
+    data = POCKET.model_dump()
+    if board is not None:
+        data["board"] = board
+    if board_window is not None:
+        data["board_min"], data["board_max"] = board_window
+    if angle is not None:
+        data["angle_deg"] = angle
+    if angle_window is not None:
+        data["angle_min_deg"], data["angle_max_deg"] = angle_window
+    return Pocket.model_validate(data)
+
+
+def bowler_scene_or_exit(path: Path) -> Any:
+    """The bowler scene in ``path``; exits when it is a physical scene."""
+    parsed = parse_scene_or_exit(path)
+    if parsed.bowler is None:
+        fail(f'{path}: a bowler scene is needed (top level "format": "bowler")')
+    return parsed.bowler
+
+
+def _fmt(value: float | None, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+@app.command()
+def aim(
+    scene: Annotated[Path, typer.Argument(help="Bowler scene file (.json, .yaml).")],
+    vary: VaryOption = None,
+    pocket_board: PocketBoardOption = None,
+    board_window: BoardWindowOption = None,
+    angle: AngleOption = None,
+    angle_window: AngleWindowOption = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Write the aimed bowler scene (.json).")
+    ] = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Find the shot that enters the pocket: vary one variable for the entry board, or two for
+    the entry board and angle. Exits 1 when no shot within the bounds does (the closest is
+    shown)."""
+    from bowlrec.bowling.aim import aim as solve_aim
+
+    pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    bowler = bowler_scene_or_exit(scene)
+    result = solve_aim(bowler, vary or ["target"], pocket)
+    if out is not None:
+        if out.suffix.lower() != ".json":
+            fail(f"--out {out}: the aimed scene is written as JSON; give a .json path")
+        text = json.dumps(result.scene.model_dump(mode="json"), indent=2) + "\n"
+        out.write_text(text, encoding="utf-8")
+    if as_json:
+        doc = result.to_dict()
+        if out is not None:
+            doc["written"] = str(out)
+        typer.echo(json.dumps(doc))
+    else:
+        _print(result, out)
+    if not result.found:
+        raise typer.Exit(1)
+
+
+def _print(result: Any, out: Path | None) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    shot = result.shot
+    title = "aimed" if result.found else "no solution: closest shot"
+    table = Table(title=f"bowlrec aim: {title}", show_header=False)
+    for name, value in result.values.items():
+        unit = {"target": "board at the arrows", "launch": "deg", "laydown": "board"}.get(
+            name, "mph"
+        )
+        table.add_row(name, f"{value:.3f} {unit}")
+    table.add_row("launch angle", f"{shot.launch_angle_deg:.3f} deg")
+    table.add_row("arrows board", _fmt(shot.arrows_board))
+    table.add_row(
+        "breakpoint", f"board {_fmt(shot.breakpoint_board)} at {_fmt(shot.breakpoint_ft, 1)} ft"
+    )
+    table.add_row("entry board", _fmt(shot.entry_board))
+    table.add_row("entry angle", f"{_fmt(shot.entry_angle_deg)} deg")
+    r = shot.report
+    table.add_row(
+        "Specto windows",
+        f"entry angle 51-55 ft {_fmt(r.specto_entry_angle_deg)} deg, board at 59.5 ft "
+        f"{_fmt(r.specto_entry_board)}, launch angle 0-10 ft {_fmt(r.specto_launch_angle_deg)} deg",
+    )
+    in_window = result.pocket.contains(shot.entry_board, shot.entry_angle_deg)
+    table.add_row("pocket", f"{result.pocket.describe()}: {'in' if in_window else 'out of'} window")
+    table.add_row("search", f"{result.evaluations} shots in {1000 * result.seconds:.0f} ms")
+    Console().print(table)
+    typer.echo(result.message)
+    if out is not None:
+        typer.echo(f"{out}: the aimed scene; simulate it with: bowlrec simulate {out}")
+
+
+@app.command()
+def variance(
+    scene: Annotated[Path, typer.Argument(help="Bowler scene file (.json, .yaml).")],
+    preset: Annotated[
+        str, typer.Option("--preset", "-p", help="Release scatter: robot, pro or league.")
+    ] = "league",
+    n: Annotated[int, typer.Option("--n", min=1, max=1_000_000, help="Repeats.")] = 2000,
+    seed: Annotated[int, typer.Option("--seed", help="Random seed (reproducible).")] = 0,
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the figure (.png or .svg).")
+    ] = None,
+    pocket_board: PocketBoardOption = None,
+    board_window: BoardWindowOption = None,
+    angle: AngleOption = None,
+    angle_window: AngleWindowOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Repeat a shot with a bowler's release scatter and report how often it enters the
+    pocket (entry board and angle distributions, share in the window)."""
+    from bowlrec.bowling.variance import PRESETS, release_scatter, scatter_figure
+
+    if preset not in PRESETS:
+        fail(f"--preset {preset!r}: choose one of {', '.join(PRESETS)}")
+    if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
+        fail(f"--plot {plot}: give a .png or .svg path")
+    pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    bowler = bowler_scene_or_exit(scene)
+    result = release_scatter(bowler, PRESETS[preset], n=n, seed=seed, pocket=pocket)
+    if plot is not None:
+        scatter_figure(result, str(plot), title=f"{bowler.name}, {preset}")
+    doc = {"preset": preset, **result.to_dict()}
+    if as_json:
+        typer.echo(json.dumps(doc))
+        return
+    board, ang = doc["entry_board"], doc["entry_angle_deg"]
+    typer.echo(
+        f"{bowler.name}, {preset} scatter, {n} repeats (seed {seed}) in {result.seconds:.2f} s"
+    )
+    typer.echo(
+        f"in the pocket ({pocket.describe()}): {100 * result.pocket_share:.1f} % "
+        f"(± {100 * result.pocket_share_se:.1f}); reach the pins: "
+        f"{100 * result.pins_share:.1f} %"
+    )
+    if board["mean"] is not None:
+        typer.echo(
+            f"entry board {board['mean']:.2f} ± {board['std']:.2f} (5-95 %: {board['p05']:.1f}"
+            f"-{board['p95']:.1f}); entry angle {ang['mean']:.2f} ± {ang['std']:.2f} deg "
+            f"(5-95 %: {ang['p05']:.2f}-{ang['p95']:.2f})"
+        )
+    if plot is not None:
+        typer.echo(f"figure: {plot}")
+
+
+@app.command()
+def tolerance(
+    scene: Annotated[Path, typer.Argument(help="Bowler scene file (.json, .yaml).")],
+    plot: Annotated[
+        Path | None, typer.Option("--plot", help="Write the map (.png or .svg).")
+    ] = None,
+    pocket_board: PocketBoardOption = None,
+    board_window: BoardWindowOption = None,
+    angle: AngleOption = None,
+    angle_window: AngleWindowOption = None,
+    as_json: JsonOption = False,
+) -> None:
+    """Map the entry board over target board at the arrows x speed around the scene's shot:
+    how far the bowler can miss the target or the speed and still enter the pocket window."""
+    from bowlrec.bowling.variance import tolerance_figure, tolerance_map
+
+    if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
+        fail(f"--plot {plot}: give a .png or .svg path")
+    pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    bowler = bowler_scene_or_exit(scene)
+    tmap = tolerance_map(bowler, pocket=pocket)
+    if plot is not None:
+        tolerance_figure(tmap, str(plot), title=bowler.name)
+    doc = tmap.to_dict()
+    if as_json:
+        typer.echo(json.dumps(doc))
+        return
+    tr, sr = doc["target_range_at_scene_speed"], doc["speed_range_at_scene_target"]
+    typer.echo(
+        f"{bowler.name}: target {doc['scene_target']:.2f} at the arrows, "
+        f"{doc['scene_speed_mph']:.2f} mph; pocket {pocket.describe()}"
+    )
+    if tr is None or sr is None:
+        typer.echo("the scene's own shot does not enter the pocket's board window: aim it first")
+    else:
+        typer.echo(
+            f"entry in the board window for targets {tr[0]:.2f}-{tr[1]:.2f} "
+            f"({tr[1] - tr[0]:.2f} boards) at its speed and for {sr[0]:.2f}-{sr[1]:.2f} mph "
+            f"({sr[1] - sr[0]:.2f} mph) at its target"
+        )
+    if plot is not None:
+        typer.echo(f"figure: {plot}")
