@@ -50,6 +50,7 @@ from bowlrec.spec._base import (
     spec_error,
 )
 
+from .surface import Coverstock
 from .units import IN_M, LB_KG, OZ_KG
 
 __all__ = [
@@ -70,9 +71,6 @@ __all__ = [
 
 Handedness = Literal["right", "left"]
 CoreType = Literal["symmetric", "asymmetric"]
-Coverstock = Literal[
-    "polyester", "urethane", "reactive_solid", "reactive_pearl", "reactive_hybrid", "particle"
-]
 
 #: lever arm of the ABC/WIBC static-weight balance (Frohlich 2004, Sec. III A and Fig. 3) (m)
 FROHLICH_LEVER_ARM_M = 0.162

@@ -60,7 +60,7 @@ __all__ = [
     "surface_text",
 ]
 
-#: coverstock classes (domain notes §8)
+#: coverstock classes
 Coverstock = Literal[
     "polyester", "urethane", "reactive_solid", "reactive_pearl", "reactive_hybrid", "particle"
 ]
