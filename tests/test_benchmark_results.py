@@ -82,17 +82,19 @@ def test_pipeline_doc_and_readme_show_the_committed_pipeline_run() -> None:
         assert row.rstrip(" |").endswith("yes") == target["met"], row
 
 
-def test_core_layout_results_follow_from_their_numbers() -> None:
-    """benchmarks/results/core_layout.md is made from core_layout.json: each ratio is after /
-    before of the medians, each 'met' cell follows from it, and the right-hand-side counts of
-    the two layouts are equal (the same arithmetic)."""
-    doc = json.loads((RESULTS / "core_layout.json").read_text())
+@pytest.mark.parametrize("name", ["core_layout", "core_observe"])
+def test_core_layout_results_follow_from_their_numbers(name: str) -> None:
+    """benchmarks/results/NAME.md is made from NAME.json: each ratio is after / before of the
+    medians, each 'met' cell follows from it, and the right-hand-side counts of the two
+    revisions are equal (the same arithmetic). core_layout: the core split into modules;
+    core_observe: the kernel with observation events against the one without."""
+    doc = json.loads((RESULTS / f"{name}.json").read_text())
     med, ratio = doc["median"], doc["ratio"]
     for key, value in ratio.items():
         assert value == pytest.approx(med["after"][key] / med["before"][key], rel=1e-12)
     for key in ("n_rhs_rtol_0.0002", "n_rhs_rtol_2e-06"):
         assert med["after"][key] == med["before"][key]
-    rows = [r for r in (RESULTS / "core_layout.md").read_text().splitlines() if r.startswith("| ")]
+    rows = [r for r in (RESULTS / f"{name}.md").read_text().splitlines() if r.startswith("| ")]
     met = {r.split("|")[1].strip(): r.rstrip(" |").rsplit("|", 1)[1].strip() for r in rows[1:]}
     limits = {
         "first compile, fresh process (s)": ("first_compile_s", 1.05),

@@ -114,7 +114,6 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
             max_time=1e300,
             max_steps=10**9,
             record_mode=RECORD_SUMMARY,
-            observe_turns=False,
         )
         rhs(y, par, PHASE_SLIDE, mu, uxr, uyr, True, K[0])
         stages(y, h, ws, law, run)

@@ -9,7 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from ._app import app
-from ._common import JsonOption, fail, parse_scene_or_exit
+from ._common import JsonOption, QuietOption, fail, parse_scene_or_exit, with_status
 
 VaryOption = Annotated[
     list[str] | None,
@@ -146,7 +146,7 @@ def variance(
     preset: Annotated[
         str, typer.Option("--preset", "-p", help="Release scatter: robot, pro or league.")
     ] = "league",
-    n: Annotated[int, typer.Option("--n", min=1, max=1_000_000, help="Repeats.")] = 2000,
+    n: Annotated[int, typer.Option("--n", min=1, max=100_000, help="Repeats.")] = 2000,
     seed: Annotated[int, typer.Option("--seed", help="Random seed (reproducible).")] = 0,
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Write the figure (.png or .svg).")
@@ -156,6 +156,7 @@ def variance(
     angle: AngleOption = None,
     angle_window: AngleWindowOption = None,
     as_json: JsonOption = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Repeat a shot with a bowler's release scatter and report how often it enters the
     pocket (entry board and angle distributions, share in the window)."""
@@ -167,7 +168,9 @@ def variance(
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
-    result = release_scatter(bowler, PRESETS[preset], n=n, seed=seed, pocket=pocket)
+    result = with_status(
+        f"{n} repeats", quiet, lambda: release_scatter(bowler, PRESETS[preset], n, seed, pocket)
+    )
     if plot is not None:
         scatter_figure(result, str(plot), title=f"{bowler.name}, {preset}")
     doc = {"preset": preset, **result.to_dict()}
@@ -204,6 +207,7 @@ def tolerance(
     angle: AngleOption = None,
     angle_window: AngleWindowOption = None,
     as_json: JsonOption = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Map the entry board over target board at the arrows x speed around the scene's shot:
     how far the bowler can miss the target or the speed and still enter the pocket window."""
@@ -213,7 +217,7 @@ def tolerance(
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
-    tmap = tolerance_map(bowler, pocket=pocket)
+    tmap = with_status("mapping", quiet, lambda: tolerance_map(bowler, pocket=pocket))
     if plot is not None:
         tolerance_figure(tmap, str(plot), title=bowler.name)
     doc = tmap.to_dict()

@@ -154,7 +154,7 @@ def _one(i, par, y0, xe, xo, ye, yo, mu, mo, lane, opts, flags, out, events):  #
             lane[i, 2],
             int(opts[i, 3]),
             flags[i, 1],
-            np.empty(0),  # no observed stations
+            None,  # nothing observed
             False,
         )
     ev = r[2]

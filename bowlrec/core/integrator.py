@@ -128,7 +128,7 @@ from .events import (
     locate,
     may_cross,
 )
-from .observe import observe_step, push_observation, step_observed
+from .observe import observe_step, push_observation, start_watch, step_observed, watching
 from .recording import push_event, push_sample
 from .records import Advanced, Clock, FrictionLaw, RunSettings, Workspace
 from .step_control import LOG_1E_4, after_accept, after_reject, aim_at_slip_layer, initial_step
@@ -187,10 +187,11 @@ def _stopped(code, clock, law):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT)
-def advance(y, clock, law, run, ws, x_watch):  # type: ignore[no-untyped-def]
+def advance(y, clock, law, run, ws, watch):  # type: ignore[no-untyped-def]
     """Take steps (same phase, zone and friction law) until one contains an event or a limit
-    is hit; while recording, return after every accepted step, and after a step that reaches
-    the next observed station ``x_watch`` (m; +inf: none) or turns (``run.observe_turns``).
+    is hit; while recording, return after every accepted step, and after a step that holds an
+    observation (``watch``: :func:`bowlrec.core.observe.start_watch`; None compiles a version
+    that observes nothing).
 
     A step without an event is taken (y and ``ws.K[0]`` updated, the clock moved on) before
     returning; a step with an event is not (the clock's t and h are its start and size,
@@ -299,10 +300,10 @@ def advance(y, clock, law, run, ws, x_watch):  # type: ignore[no-untyped-def]
                 h0=h,
                 ux_end=st[4],
                 uy_end=st[5],
-                observed=run.observe_turns or x_watch < math.inf,
+                observed=watching(watch),
             )
         # plain accepted step
-        observed = step_observed(y, ynew, x_watch, run.observe_turns)
+        observed = step_observed(y, ynew, watch)
         if observed and not (scan or dynamic or run.record_mode == RECORD_RATE):
             dense_coeffs(y, ynew, K, h, rc)
         t_start = t
@@ -347,17 +348,18 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     max_time,
     max_steps,
     orient,
-    observe_x,
-    observe_turns,
+    stations,
+    turns,
 ):
     """Integrate one delivery. See the module docstring.
 
     Returns (samples, n_samples, events, n_events, status, t_end, y_end, n_steps, n_rhs,
     observations, n_observations): the sample, event and observation tables (columns in
     :mod:`bowlrec.core.codes`) and their row counts, the STATUS_* code, the end time (s) and
-    state, accepted steps and right-hand sides. ``observe_x``: ascending stations x (m) at which
-    the state is observed, ``observe_turns``: also at v_y = 0 (:mod:`bowlrec.core.observe`;
-    observing changes no result).
+    state, accepted steps and right-hand sides. ``stations``: ascending x (m) at which the state
+    is observed, ``turns``: also at v_y = 0, with the release and the last state
+    (:mod:`bowlrec.core.observe`; observing changes no result); None: nothing is observed and
+    no observing is compiled in.
     ``record_mode``: RECORD_SUMMARY, RECORD_STEPS or RECORD_RATE (every ``record_dt`` s).
     ``slide_mode``: SLIDE_TO_ROLL_EXACT or SLIDE_TO_ROLL_THRESHOLD (|s| < slip_threshold).
     """
@@ -374,7 +376,6 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         max_time=max_time,
         max_steps=max_steps,
         record_mode=record_mode,
-        observe_turns=observe_turns,
     )
     ws = new_workspace()
     K = ws.K
@@ -385,12 +386,10 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     nrec = 0
     ev = np.empty((16, N_EVCOL))
     nev = 0
-    obs = np.empty((4, N_OBSCOL))
+    obs = np.empty((1, N_OBSCOL))
     nobs = 0
-    k_watch = np.searchsorted(observe_x, y_init[S_X], side="right")  # stations past the release
-    x_watch = observe_x[k_watch] if k_watch < observe_x.shape[0] else math.inf
-    observing = observe_turns or observe_x.shape[0] > 0
-    if observing:
+    watch = start_watch(stations, turns, y_init[S_X])
+    if stations is not None:
         obs, nobs = push_observation(obs, nobs, 0.0, float(OBS_RELEASE), y)
     s_accept = s_layer  # a slip-direction root above the layer is a turn, not a zero
     margin_tol = run.margin_tol
@@ -420,7 +419,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     n_transitions = 0
 
     while status == STATUS_RUNNING:
-        adv = advance(y, Clock(t, h, lfacold, nsteps, nfev), law, run, ws, x_watch)
+        adv = advance(y, Clock(t, h, lfacold, nsteps, nfev), law, run, ws, watch)
         t, h, lfacold, nsteps, nfev = adv.clock
         law = adv.law
         uxr = law.ux
@@ -448,11 +447,12 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
                 rr = rhs(ws.ybuf, par, phase, mu, uxr, uyr, orient, dtmp)
                 rec, nrec = push_sample(rec, nrec, t_next_sample, ws.ybuf, phase, mu, rr[2], rr[3])
                 t_next_sample += record_dt
-        if adv.observed:
-            obs, nobs, k_watch = observe_step(
-                ws.rc, t0, h0, t_step_end, observe_x, k_watch, observe_turns, obs, nobs, ws.ybuf
-            )
-            x_watch = observe_x[k_watch] if k_watch < observe_x.shape[0] else math.inf
+        # a condition on the argument alone: numba drops the branch when stations is None
+        if stations is not None:  # noqa: SIM102
+            if adv.observed:
+                obs, nobs = observe_step(
+                    ws.rc, t0, h0, t_step_end, stations, watch, obs, nobs, ws.ybuf
+                )
 
         if best_idx < 0:
             if record_mode == RECORD_STEPS:
@@ -559,6 +559,6 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
     if record_mode != RECORD_SUMMARY and (nrec == 0 or rec[nrec - 1, COL_T] != t):
         r0 = rhs(y, par, phase, mu, uxr, uyr, orient, dtmp)
         rec, nrec = push_sample(rec, nrec, t, y, phase, mu, r0[2], r0[3])
-    if observing:
+    if stations is not None:
         obs, nobs = push_observation(obs, nobs, t, float(OBS_END), y)
     return rec, nrec, ev, nev, status, t, y, nsteps, nfev, obs, nobs

@@ -55,35 +55,69 @@ def push_observation(obs, nobs, t, what, y):  # type: ignore[no-untyped-def]
     return obs, nobs + 1
 
 
+#: the watch array: the next station's x (m; +inf: none left), 1.0 to observe turning points,
+#: the index of the next station
+W_NEXT_X, W_TURNS, W_INDEX = 0, 1, 2
+
+
 @njit(cache=True, error_model="numpy")
-def observe_step(rc, t0, h0, t_end, stations, k_next, turns, obs, nobs, ybuf):  # type: ignore[no-untyped-def]
+def start_watch(stations, turns, x0):  # type: ignore[no-untyped-def]
+    """The watch array for ``stations`` (ascending x, m; those at or behind the release point
+    ``x0`` are not observed) and ``turns``; None (and no observing compiled in) when
+    ``stations`` is None."""
+    if stations is None:
+        return None
+    watch = np.empty(3)
+    k = np.searchsorted(stations, x0, side="right")
+    watch[W_NEXT_X] = stations[k] if k < stations.shape[0] else np.inf
+    watch[W_TURNS] = 1.0 if turns else 0.0
+    watch[W_INDEX] = k
+    return watch
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def watching(watch):  # type: ignore[no-untyped-def]
+    """Something is left to observe (False when not observing at all)."""
+    if watch is None:
+        return False
+    return watch[W_TURNS] != 0.0 or watch[W_NEXT_X] < np.inf
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def step_observed(y, ynew, watch):  # type: ignore[no-untyped-def]
+    """True when the step from state y to ynew reaches the next station or, when turning
+    points are observed, changes the sign of v_y (False when not observing at all)."""
+    if watch is None:
+        return False
+    if ynew[S_X] >= watch[W_NEXT_X]:
+        return True
+    return watch[W_TURNS] != 0.0 and ((y[S_VY] < 0.0) != (ynew[S_VY] < 0.0))
+
+
+@njit(cache=True, error_model="numpy")
+def observe_step(rc, t0, h0, t_end, stations, watch, obs, nobs, ybuf):  # type: ignore[no-untyped-def]
     """Record the observations inside the accepted step from t0 (size h0, dense output ``rc``)
-    up to t_end <= t0 + h0: the stations ``stations[k_next:]`` (ascending x, m) the path
-    reaches by t_end and, with ``turns``, a sign change of v_y. Returns (obs, nobs, k_next)."""
+    up to t_end <= t0 + h0: the stations from ``watch``'s next one on that the path reaches by
+    t_end and, when turning points are observed, a sign change of v_y. Updates ``watch``;
+    returns (obs, nobs)."""
     theta_end = (t_end - t0) / h0
     dense_planar(rc, theta_end, ybuf)
     x_end = ybuf[S_X]
     vy_end = ybuf[S_VY]
-    while k_next < stations.shape[0] and x_end >= stations[k_next]:
-        theta = _root(rc, S_X, stations[k_next], theta_end, ybuf)
+    k = int(watch[W_INDEX])
+    while k < stations.shape[0] and x_end >= stations[k]:
+        theta = _root(rc, S_X, stations[k], theta_end, ybuf)
         dense(rc, theta, ybuf)
-        ybuf[S_X] = stations[k_next]  # exactly on the station
-        obs, nobs = push_observation(obs, nobs, t0 + theta * h0, float(k_next), ybuf)
-        k_next += 1
+        ybuf[S_X] = stations[k]  # exactly on the station
+        obs, nobs = push_observation(obs, nobs, t0 + theta * h0, float(k), ybuf)
+        k += 1
         dense_planar(rc, theta_end, ybuf)
-    if turns:
+    watch[W_INDEX] = k
+    watch[W_NEXT_X] = stations[k] if k < stations.shape[0] else np.inf
+    if watch[W_TURNS] != 0.0:
         dense_planar(rc, 0.0, ybuf)
         if (ybuf[S_VY] < 0.0) != (vy_end < 0.0):
             theta = _root(rc, S_VY, 0.0, theta_end, ybuf)
             dense(rc, theta, ybuf)
             obs, nobs = push_observation(obs, nobs, t0 + theta * h0, float(OBS_TURN), ybuf)
-    return obs, nobs, k_next
-
-
-@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
-def step_observed(y, ynew, x_watch, turns):  # type: ignore[no-untyped-def]
-    """True when the step from state y to ynew reaches the next station ``x_watch`` (m) or,
-    with ``turns``, changes the sign of v_y."""
-    if ynew[S_X] >= x_watch:
-        return True
-    return turns and ((y[S_VY] < 0.0) != (ynew[S_VY] < 0.0))
+    return obs, nobs

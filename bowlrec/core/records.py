@@ -37,8 +37,6 @@ class RunSettings(NamedTuple):
     max_steps: int
     #: RECORD_SUMMARY, RECORD_STEPS or RECORD_RATE (codes)
     record_mode: int
-    #: observe the turning points of the path across the lane (v_y = 0; core.observe)
-    observe_turns: bool
 
 
 class FrictionLaw(NamedTuple):

@@ -167,7 +167,7 @@ def kernel_call(
         float(plan.max_time_s),
         int(plan.max_steps),
         needs_orientation(plan),
-        _stations(stations_m),
+        _stations(stations_m) if observing else None,
         bool(turns),
     )
     return simulate_kernel, args
