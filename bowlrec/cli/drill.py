@@ -84,6 +84,7 @@ def _report(spec: DrillingSpec, d: DrilledBall) -> dict[str, Any]:
     lo, mid, hi = d.rg_in
     return {
         "ball": spec.ball.name,
+        "symmetric": spec.ball.core_type == "symmetric",
         "undrilled_weight_lb": d.undrilled_mass_kg / 0.45359237,
         "weight_lb": d.weight_lb,
         "removed_oz": d.removed_oz,
@@ -153,10 +154,12 @@ def _print_report(rep: dict[str, Any]) -> None:
         )
     for name in ("pin", "psa"):
         a = rep[name]
-        lines.append(
-            f"  {name.upper():<9} moved {a['moved_in']:.3f} in, now {a['over_in']:+.3f} over x "
-            f"{a['up_in']:+.3f} up"
-        )
+        where = f"now {a['over_in']:+.3f} over x {a['up_in']:+.3f} up"
+        if name == "psa" and rep["symmetric"]:
+            # a symmetric ball has no PSA before drilling: the holes alone place the new one
+            lines.append(f"  {name.upper():<9} {where} (set by the holes: the ball had none)")
+        else:
+            lines.append(f"  {name.upper():<9} moved {a['moved_in']:.3f} in, {where}")
     for h in rep["holes"]:
         lines.append(
             f"  hole {h['name']:<8} {h['diameter_in']:.3f} x {h['depth_in']:.3f} in at "
