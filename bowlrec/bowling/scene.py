@@ -162,15 +162,14 @@ class BowlerScene(SpecModel):
         caller has it."""
         drilled = self.drilled() if drilled is None and self.drilling is not None else drilled
         if drilled is not None:
-            measured = self.measured_weights(drilled.mass_kg)
-            report = drilled.legality(self.rules, measured)
-            if self.balance_hole:
-                report = check_legality(
-                    drilled.drilled_spec(), self.rules,
-                    static_weights=drilled.static_weights(measured),
-                    gripping_holes=drilled.gripping_holes, balance_hole=True,
-                )  # fmt: skip
-            return report
+            return check_legality(
+                drilled.drilled_spec(),
+                self.rules,
+                static_weights=drilled.static_weights(self.measured_weights(drilled.mass_kg)),
+                gripping_holes=drilled.gripping_holes,
+                balance_hole_diameters_in=drilled.balance_hole_diameters_in,
+                balance_hole=self.balance_hole,
+            )
         weights = self.balance if isinstance(self.balance, StaticWeights) else None
         return check_legality(
             self.ball, self.rules, static_weights=weights, balance_hole=self.balance_hole
