@@ -101,7 +101,7 @@ def test_every_entry_is_sourced(entry: BallEntry) -> None:
 
 
 def test_reviews_are_marked_and_assumptions_declared() -> None:
-    reviews_only = [e for e in PRODUCTS if e.from_reviews_only]
+    reviews_only = [e for e in PRODUCTS if e.second_hand == "review"]
     assert reviews_only, "specs found only in reviews are marked"
     for e in reviews_only:
         assert all(s.kind != "manufacturer" for s in e.sources)
@@ -113,12 +113,14 @@ def test_reviews_are_marked_and_assumptions_declared() -> None:
     road = next(e for e in LIBRARY.balls if e.id == "storm-the-road-15lb")
     assert "disagree" in road.note and "2.55" in road.note and "DNA Coil" in road.note
     assert {s.kind for s in road.sources} == {"review", "database"}
-    assert road.from_reviews_only
+    assert road.second_hand == "review"
+    databases = [e for e in PRODUCTS if e.second_hand == "database"]
+    assert databases and all("(spec database)" in e.source for e in databases)
 
 
 def test_the_road_carries_its_own_numbers_not_the_dna_coils() -> None:
     """Two sources give The Road a symmetric 2.55 / 0.045 core; 2.47 / .053 / .023 is the DNA Coil
-    II's spec, once misread from a review of The Road."""
+    II's spec, which a review of The Road prints."""
     by_id = {e.id: e for e in LIBRARY.balls}
     for weight in (15, 14):
         road = by_id[f"storm-the-road-{weight}lb"]
@@ -218,7 +220,7 @@ def test_cli_output_cites_publishers_not_tags(tmp_path: Path) -> None:
     assert "sources:" in road
     assert "Bowling This Month — Storm The Road" in road
     assert "https://www.bowlingthismonth.com/bowling-ball-review/storm-the-road/ (review)" in road
-    assert "maker's own spec sheet was not found" in road
+    assert "maker's own spec sheet was not read" in road
     paper = outputs["sheet frohlich-2004-high-rg-nonscalar"]
     assert "https://doi.org/10.1119/1.1767099 (paper)" in paper
     assert "(review)" not in paper

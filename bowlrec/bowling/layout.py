@@ -647,11 +647,13 @@ class BallEntry(_Entry):
         return "; ".join(citation(s) for s in self.sources)
 
     @property
-    def from_reviews_only(self) -> bool:
-        """True when the numbers come from a review and no source is the maker's own sheet."""
-        return self.sources[0].kind == "review" and not any(
-            s.kind == "manufacturer" for s in self.sources
-        )
+    def second_hand(self) -> str | None:
+        """The kind of the source the numbers come from ('review' or 'database') when no
+        source is the maker's own sheet read here (a manufacturer source with a quote); None
+        otherwise."""
+        read_from_maker = any(s.kind == "manufacturer" and s.quote for s in self.sources)
+        kind = self.sources[0].kind
+        return kind if kind in ("review", "database") and not read_from_maker else None
 
 
 class LayoutEntry(_Sourced):

@@ -93,8 +93,12 @@ def sheet(
         typer.echo(f"  - {citation(source)}")
         if source.quote:
             typer.echo(f'    "{source.quote}"')
-    if entry.from_reviews_only:
-        typer.echo("  specs as printed in reviews: the maker's own spec sheet was not found")
+    if entry.second_hand is not None:
+        where = {"review": "reviews", "database": "third-party spec databases"}
+        typer.echo(
+            f"  specs as printed in {where[entry.second_hand]}: the maker's own spec sheet was "
+            "not read"
+        )
     if entry.assumed:
         typer.echo(f"assumed (not stated by the sources): {', '.join(entry.assumed)}")
     if entry.note:
