@@ -127,6 +127,19 @@ def test_aim_command(tmp_path: Path) -> None:
     aimed = json.loads(out.read_text())
     assert aimed["format"] == "bowler"
     assert aimed["delivery"]["target_board_at_arrows"] == pytest.approx(doc["values"]["target"])
+    assert doc["written"] == str(out)
+    # no solution: exit 1, the closest shown, nothing written
+    far = tmp_path / "far.json"
+    far.write_text(_scene(laydown_board=5.0, target_board_at_arrows=3.0).model_dump_json())
+    missed = tmp_path / "missed.json"
+    res = runner.invoke(
+        app, ["aim", str(far), "-v", "speed", "--pocket-board", "35",
+              "--board-window", "34.9", "35.1", "--out", str(missed)],
+    )  # fmt: skip
+    assert res.exit_code == 1 and "closest" in res.output and not missed.exists()
+    assert "not written" in res.output
+    refused = runner.invoke(app, ["aim", str(EXAMPLE), "--out", str(tmp_path / "a.txt")])
+    assert refused.exit_code == 2 and "give a .json path" in refused.output
     bad = runner.invoke(app, ["aim", str(EXAMPLE), "--vary", "spin"])
     assert bad.exit_code == 2 and "vary = ['spin']" in bad.output
     physical = tmp_path / "physical.json"

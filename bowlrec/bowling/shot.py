@@ -44,6 +44,8 @@ __all__ = ["TARGET_TOLERANCE_BOARDS", "Shot", "heading"]
 TARGET_TOLERANCE_BOARDS = 1e-6
 #: secant iterations before the arrows target is declared out of reach
 _MAX_ITERATIONS = 12
+#: the largest change of the launch angle in one iteration (deg)
+_MAX_STEP_DEG = 3.0
 
 
 def heading(takeoff_angle_deg: float) -> tuple[float, float, float]:
@@ -148,26 +150,31 @@ class Shot:
         along = (ARROWS_FT - delivery.laydown_ft) * FT_M
         slope = along / lane.board_width_m * math.pi / 180.0
         a0 = delivery.launch_angle_on(lane)
-        b0 = self._board_or_fail(delivery, a0, target)
+        b0 = self.arrows_board(delivery, a0)
+        if b0 is None:
+            raise AimError(
+                f"target_board_at_arrows = {fmt(target)}: launched at the sighting line "
+                f"({a0:.4f} deg) from board {fmt(delivery.laydown_board)} the ball does not "
+                "reach the arrows"
+            )
+        best = (abs(b0 - target), a0, b0)
         a1 = a0 - (b0 - target) / slope
         for _ in range(_MAX_ITERATIONS):
-            b1 = self._board_or_fail(delivery, a1, target)
+            # at most _MAX_STEP_DEG from the last angle that reached the arrows
+            a1 = max(a0 - _MAX_STEP_DEG, min(a0 + _MAX_STEP_DEG, a1))
+            b1 = self.arrows_board(delivery, a1)
+            if b1 is None:  # it does not get there (the gutter first): half the step
+                a1 = 0.5 * (a0 + a1)
+                continue
             if abs(b1 - target) <= TARGET_TOLERANCE_BOARDS:
                 return a1
+            best = min(best, (abs(b1 - target), a1, b1))
             if b1 == b0:
                 break
             a0, a1, b0 = a1, a1 - (b1 - target) * (a1 - a0) / (b1 - b0), b1
-            a1 = max(-45.0, min(45.0, a1))
         raise AimError(
-            f"target_board_at_arrows = {fmt(target)}: no launch angle in [-45, 45] deg makes "
-            f"the ball cross it (closest: board {b0:.3f} at {a0:.4f} deg)"
+            f"target_board_at_arrows = {fmt(target)}: no launch angle found that makes the "
+            f"ball cross it at the arrows from board {fmt(delivery.laydown_board)} (closest: "
+            f"board {best[2]:.3f} at {best[1]:.4f} deg); the board crossed there need not "
+            "change steadily with the angle where the ball starts on dry boards"
         )
-
-    def _board_or_fail(self, delivery: BowlerDelivery, launch: float, target: float) -> float:
-        board = self.arrows_board(delivery, launch)
-        if board is None:
-            raise AimError(
-                f"target_board_at_arrows = {fmt(target)}: launched at {launch:.4f} deg from "
-                f"board {fmt(delivery.laydown_board)} the ball does not reach the arrows"
-            )
-        return board

@@ -84,24 +84,28 @@ def aim(
 ) -> None:
     """Find the shot that enters the pocket: vary one variable for the entry board, or two for
     the entry board and angle. Exits 1 when no shot within the bounds does (the closest is
-    shown)."""
+    shown, and --out is not written)."""
     from bowlrec.bowling.aim import aim as solve_aim
 
+    if out is not None and out.suffix.lower() != ".json":
+        fail(f"--out {out}: the aimed scene is written as JSON; give a .json path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
     result = solve_aim(bowler, vary or ["target"], pocket)
-    if out is not None:
-        if out.suffix.lower() != ".json":
-            fail(f"--out {out}: the aimed scene is written as JSON; give a .json path")
-        text = json.dumps(result.scene.model_dump(mode="json"), indent=2) + "\n"
-        out.write_text(text, encoding="utf-8")
+    written = out if out is not None and result.found else None
+    if written is not None:
+        from bowlrec.atomic_files import atomic_path
+
+        with atomic_path(written) as tmp:
+            tmp.write_text(json.dumps(result.scene.model_dump(mode="json"), indent=2) + "\n")
     if as_json:
         doc = result.to_dict()
-        if out is not None:
-            doc["written"] = str(out)
+        doc["written"] = None if written is None else str(written)
         typer.echo(json.dumps(doc))
     else:
-        _print(result, out)
+        _print(result, written)
+        if out is not None and written is None:
+            typer.echo(f"{out}: not written (no shot enters the pocket)")
     if not result.found:
         raise typer.Exit(1)
 
