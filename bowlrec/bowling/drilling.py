@@ -76,7 +76,7 @@ from .ball import (
     grip_point_coords,
     handedness_sign,
 )
-from .layout import PAP, Layout, grip_axes, grip_to_lane_rotation, pap_lane_direction
+from .layout import PAP, GripAxes, Layout, grip_axes, place_ball
 from .legality import LegalityReport, RuleSetName, check_legality
 from .units import IN_M, LB_KG, OZ_KG
 
@@ -548,30 +548,28 @@ class DrilledBall:
         as :func:`bowlrec.bowling.layout.resolve_ball` places an undrilled one: axis_1 the
         drilled pin, axis_2 the drilled PSA, the center-of-mass offset from ``measured`` static
         weights when given, else the computed one."""
-        p_grip = pap.point(self.ball.radius_in)
-        p_lane = pap_lane_direction(np.asarray(omega_dir_lane, dtype=float), pap.handedness)
-        rot = grip_to_lane_rotation(
-            p_grip, p_lane, roll_about_pap_deg, pap.handedness, np.asarray(travel_dir_lane)
-        )
         offset = (
             self.com_offset_m
             if measured is None
             else measured.com_offset_grip_m(self.mass_kg, pap.handedness)
         )
         lo, mid, hi = (x * IN_M for x in self.rg_in)
-        pin, psa = rot @ self.principal_axes[0], rot @ self.principal_axes[2]
-        return Ball(
-            mass_kg=self.mass_kg,
-            radius_m=self.ball.radius_m,
-            rg_m=(lo, hi, mid),
-            axis_1=_vec(pin),
-            axis_2=_vec(psa),
-            com_offset_m=_vec(rot @ offset),
+        axes = GripAxes(
+            pap=pap.point(self.ball.radius_in),
+            pin=self.principal_axes[0],
+            psa=self.principal_axes[2],
         )
-
-
-def _vec(v: NDArray) -> tuple[float, float, float]:
-    return (float(v[0]), float(v[1]), float(v[2]))
+        return place_ball(
+            self.mass_kg,
+            self.ball.radius_m,
+            (lo, hi, mid),
+            axes,
+            offset,
+            pap,
+            omega_dir_lane,
+            roll_about_pap_deg=roll_about_pap_deg,
+            travel_dir_lane=travel_dir_lane,
+        )
 
 
 def _undrilled_tensor(ball: BowlerBall, mass_kg: float, axes: NDArray) -> NDArray:

@@ -116,6 +116,7 @@ __all__ = [
     "grip_to_lane_rotation",
     "load_example_library",
     "pap_lane_direction",
+    "place_ball",
     "resolve_ball",
     "two_ls_to_dual_angle",
     "two_ls_to_vls",
@@ -579,18 +580,45 @@ def resolve_ball(
     weights after drilling, or a center-of-mass mark); none means a perfectly balanced drilled ball.
     """
     axes = grip_axes(ball, layout, pap)
+    return place_ball(
+        ball.mass_kg,
+        ball.radius_m,
+        ball.rg_m,
+        axes,
+        _balance_offset_grip(ball, balance, pap.handedness),
+        pap,
+        omega_dir_lane,
+        roll_about_pap_deg=roll_about_pap_deg,
+        travel_dir_lane=travel_dir_lane,
+    )
+
+
+def place_ball(
+    mass_kg: float,
+    radius_m: float,
+    rg_m: tuple[float, float, float],
+    axes: GripAxes,
+    offset_grip_m: NDArray,
+    pap: PAP,
+    omega_dir_lane: NDArray | tuple[float, float, float],
+    *,
+    roll_about_pap_deg: float = 0.0,
+    travel_dir_lane: NDArray | tuple[float, float, float] = _DOWN_LANE,
+) -> Ball:
+    """A ball with grip-frame ``axes`` (PAP, pin, PSA) and center-of-mass offset
+    ``offset_grip_m`` (m) placed in the lane frame at release, as :func:`resolve_ball`
+    describes; ``rg_m`` = (RG about the pin, about the PSA, about pin x PSA) (m)."""
     p_lane = pap_lane_direction(np.asarray(omega_dir_lane, dtype=float), pap.handedness)
     rot = grip_to_lane_rotation(
         axes.pap, p_lane, roll_about_pap_deg, pap.handedness, travel_dir_lane
     )
-    offset = rot @ _balance_offset_grip(ball, balance, pap.handedness)
     return Ball(
-        mass_kg=ball.mass_kg,
-        radius_m=ball.radius_m,
-        rg_m=ball.rg_m,
+        mass_kg=mass_kg,
+        radius_m=radius_m,
+        rg_m=rg_m,
         axis_1=_vec(rot @ axes.pin),
         axis_2=_vec(rot @ axes.psa),
-        com_offset_m=_vec(offset),
+        com_offset_m=_vec(rot @ offset_grip_m),
     )
 
 

@@ -150,8 +150,6 @@ def release_scatter(
 ) -> ScatterResult:
     """``n`` repeats of ``scene``'s shot with ``scatter`` (module docstring), reproducible by
     ``seed``."""
-    from bowlrec.core.batch import B_STATE, batch_metrics, pack_plans, run_batch
-    from bowlrec.core.codes import S_Y
 
     if n < 1:
         raise ValueError(f"n = {n} must be >= 1")
@@ -179,17 +177,7 @@ def release_scatter(
         fields["axis_tilt_deg"] = max(-90.0, min(90.0, fields["axis_tilt_deg"]))
         repeat = type(d).model_validate(fields)
         plans.append(shot.plan(repeat.to_physical(scene.lane)))
-    packed = pack_plans(plans)
-    result = run_batch(packed, parallel=parallel)
-    metrics = batch_metrics(packed, result)
-    outcomes = np.asarray(metrics["outcome"]).astype(str)
-    pins = outcomes == "pins"
-    hand = d.handedness
-    sign = 1.0 if hand == "right" else -1.0
-    y_end = result.out[:, B_STATE + S_Y]
-    boards = np.array([scene.lane.y_to_board(float(y), hand) for y in y_end])
-    entry_board = np.where(pins, boards, np.nan)
-    entry_angle = np.where(pins, sign * np.asarray(metrics["pocket_deg"], dtype=float), np.nan)
+    outcomes, entry_board, entry_angle = _entries(plans, scene, parallel)
     return ScatterResult(
         n=n,
         seed=seed,
@@ -200,6 +188,27 @@ def release_scatter(
         outcomes=outcomes,
         seconds=time.perf_counter() - t0,
     )
+
+
+def _entries(
+    plans: list[Any], scene: BowlerScene, parallel: bool = True
+) -> tuple[NDArray[np.str_], NDArray[np.float64], NDArray[np.float64]]:
+    """Run ``plans`` in the many-delivery kernel: (outcomes, entry board, entry angle in deg
+    toward the bowler's higher boards; NaN where the ball does not reach the pins)."""
+    from bowlrec.core.batch import B_STATE, batch_metrics, pack_plans, run_batch
+    from bowlrec.core.codes import S_Y
+
+    packed = pack_plans(plans)
+    result = run_batch(packed, parallel=parallel)
+    metrics = batch_metrics(packed, result)
+    outcomes = np.asarray(metrics["outcome"]).astype(str)
+    pins = outcomes == "pins"
+    hand = scene.delivery.handedness
+    sign = 1.0 if hand == "right" else -1.0
+    boards = np.array([scene.lane.y_to_board(float(y), hand) for y in result.out[:, B_STATE + S_Y]])
+    entry_board = np.where(pins, boards, np.nan)
+    entry_angle = np.where(pins, sign * np.asarray(metrics["pocket_deg"], dtype=float), np.nan)
+    return outcomes, entry_board, entry_angle
 
 
 def scatter_figure(result: ScatterResult, path: str, title: str = "") -> None:
@@ -322,8 +331,6 @@ def tolerance_map(
     or the speed (the "mistake area"): by default +-1.5 boards around the scene's target in
     0.125-board steps and +-2 mph around its speed in 0.25 mph steps. Each cell's launch angle
     crosses its target (:meth:`Shot.launch_angle`); the cells run in the many-delivery kernel."""
-    from bowlrec.core.batch import B_STATE, batch_metrics, pack_plans, run_batch
-    from bowlrec.core.codes import S_Y
     from bowlrec.errors import AimError
 
     t0 = time.perf_counter()
@@ -356,16 +363,10 @@ def tolerance_map(
     entry_board = np.full((len(speeds_mph), len(targets)), np.nan)
     entry_angle = np.full_like(entry_board, np.nan)
     if plans:
-        packed = pack_plans(plans)
-        result = run_batch(packed)
-        metrics = batch_metrics(packed, result)
-        sign = 1.0 if d.handedness == "right" else -1.0
-        for k, (i, j) in enumerate(cells):
-            if metrics["outcome"][k] != "pins":
-                continue
-            y = float(result.out[k, B_STATE + S_Y])
-            entry_board[i, j] = scene.lane.y_to_board(y, d.handedness)
-            entry_angle[i, j] = sign * float(metrics["pocket_deg"][k])
+        _, boards, angles = _entries(plans, scene)
+        rows, cols = np.array(cells).T
+        entry_board[rows, cols] = boards
+        entry_angle[rows, cols] = angles
     return ToleranceMap(
         targets=targets,
         speeds_mph=speeds_mph,

@@ -104,7 +104,7 @@ def simulate(
 
         run = RunData(scene_obj, scene_obj.resolve(), traj, run_id)
         lines = write_outputs(run, files, connect=connect, spawn=spawn)
-    bowler = _bowler_report(parsed, scene_obj)
+    bowler = _bowler_report(parsed, run.plan)
     if as_json:
         payload = summary_json(traj.summary)
         payload.update(
@@ -137,16 +137,16 @@ def _with_library_ball(parsed: Any, ref: str, store: Any) -> Any:
         raise SceneInputError(f"--ball {ref}: {err}") from None
 
 
-def _bowler_report(parsed: Any, scene: Any) -> dict[str, Any] | None:
-    """The report in bowlers' terms for a bowler-language scene (a summary-only run of the same
-    plan observing what the report reads: the run's results are the same), else None."""
+def _bowler_report(parsed: Any, plan: Any) -> dict[str, Any] | None:
+    """The report in bowlers' terms for a bowler-language scene, else None: from a summary-only
+    run of ``plan`` observing what the report reads (a run that records samples weighs the
+    orientation fully, so the two agree to the integrator's tolerance, not bit for bit)."""
     if parsed.bowler is None:
         return None
     from bowlrec.bowling.report import bowler_report, observed_run
 
     bs = parsed.bowler
-    plan = replace(scene.resolve(), record_mode=RECORD_SUMMARY)
-    traj = observed_run(plan, bs.lane)
+    traj = observed_run(replace(plan, record_mode=RECORD_SUMMARY), bs.lane)
     return bowler_report(traj, bs.lane, bs.delivery.handedness).to_dict()
 
 
