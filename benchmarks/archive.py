@@ -1,4 +1,4 @@
-"""The archive (format 2.0) at a million summary-only runs, against the issue's targets.
+"""The archive (format 2.0) at a million summary-only runs, against its targets (TARGETS).
 
     python -m benchmarks.archive [--runs 1000000] [--quick] [--bases 2000]
                                  [--register-batch 1] [--out benchmarks/results]
@@ -36,11 +36,11 @@ What is measured (each target's measured value, next to it, met or missed):
 - one recorded trajectory: :meth:`Archive.load` of each recorded run;
 - :meth:`Archive.repair` and :meth:`Archive.reindex` of the whole archive (once each).
 
-Timings are medians (and best) of repeats; the machine is shared, so its load average before
-and after is recorded. The OS page cache is warm (the archive was just written). ``--quick``
-is a 20,000-run smoke test (1,000 bases) written as ``archive-quick.json``/``.md``; the
-committed ``archive.json``/``archive.md`` come from the full 1,000,000-run benchmark. The
-temporary archive is deleted at the end (``--keep`` keeps it).
+Timings are medians (and best) of repeats; the machine's speed can drift with other load, so
+its load average before and after is recorded. The OS page cache is warm (the archive was just
+written). ``--quick`` is a 20,000-run smoke test (1,000 bases) written as
+``archive-quick.json``/``.md``; the committed ``archive.json``/``archive.md`` come from the full
+1,000,000-run benchmark. The temporary archive is deleted at the end (``--keep`` keeps it).
 """
 
 from __future__ import annotations
@@ -789,8 +789,8 @@ def markdown(d: dict[str, Any]) -> str:
         f"{s['segment_runs']:,} (made from {s['bases_simulated']:,} simulated deliveries, "
         f"outcomes {s['base_outcomes']}), plus {d['recorded']['runs']} recorded runs "
         f"(rate, 2 ms). {m['nproc']} cores ({m['cpu']}), load average "
-        f"{d['loadavg_before'][0]:.2f} before / {d['loadavg_after'][0]:.2f} after (shared "
-        f"machine); Python {m['python']}, numpy {m['numpy']}, h5py {m['h5py']} (HDF5 "
+        f"{d['loadavg_before'][0]:.2f} before / {d['loadavg_after'][0]:.2f} after; "
+        f"Python {m['python']}, numpy {m['numpy']}, h5py {m['h5py']} (HDF5 "
         f"{m['hdf5']}), SQLite {m['sqlite']}. Whole benchmark: {d['benchmark_wall_s']:.0f} s. "
         "Times: median of repeats (best in the tables below).",
         "",

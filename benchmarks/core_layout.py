@@ -5,9 +5,9 @@
 
 Checks that a change to ``bowlrec/core`` costs nothing at run time or start-up.
 ``--before`` (and ``--after``, default: this working tree) are checked out into temporary git
-worktrees; both trees run under this interpreter,
-each with ``PYTHONPATH`` pointing at its own checkout, in alternation (A B A B ...), so a drift
-of the shared machine's speed hits both alike. Per tree:
+worktrees; both trees run under this interpreter, each with ``PYTHONPATH`` pointing at its own
+checkout, in alternation (A B A B ...): the machine's speed can drift with other load, and a
+drift hits both alike. Per tree:
 
 * **first compile**: the kernels' on-disk cache is deleted, then one fresh process compiles
   every kernel (:data:`WARM`: the integrator in all three recording modes and both slide ->
@@ -22,8 +22,8 @@ of the shared machine's speed hits both alike. Per tree:
 
 Targets: first compile and cold start no worse than before (ratio after / before <= 1.05, the
 machine's noise), kernel time no worse (median ratio <= 1.03). Writes ``NAME.json`` and
-``NAME.md``. The committed results: ``core_layout`` (the core split into one concept a module,
-``--before 3f7e090``) and ``core_observe`` (observation events, ``--before 08dc5f2``).
+``NAME.md``. The committed results name their revisions (benchmarks/results/core_layout.md,
+core_observe.md).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from typing import Any
 from bowlrec.testing import random_scene_dicts
 
 ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_BEFORE = "3f7e090"  # the last commit with the single-file integrator
+DEFAULT_BEFORE = "3f7e090"  # the baseline of benchmarks/results/core_layout.md
 
 #: compiles (or loads) every kernel once; prints nothing
 WARM = """

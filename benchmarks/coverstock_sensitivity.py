@@ -47,9 +47,12 @@ from bowlrec.bowling.surface import (
     Surface,
     surface_text,
 )
-from bowlrec.readme_blocks import replace_block
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script: tools/ is importable from the repository root
+    sys.path.insert(0, str(ROOT))
+from tools.readme_blocks import replace_block  # noqa: E402
+
 RESULTS = ROOT / "benchmarks" / "results"
 DOC = ROOT / "docs" / "coverstock.md"
 BLOCK = "coverstock"

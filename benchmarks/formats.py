@@ -1,6 +1,6 @@
 """Costs of the archive and replay formats, and of starting bowlrec.
 
-    python -m benchmarks.formats [--update-readme] [--out benchmarks/results]
+    python -m benchmarks.formats [--update-docs] [--out benchmarks/results]
 
 Measures, on this machine:
 - start-up in fresh processes: ``import bowlrec``, ``bowlrec --help``, ``bowlrec simulate`` of one
@@ -10,7 +10,7 @@ Measures, on this machine:
   plot): milliseconds (median of repeats) and bytes, for a 2.5 s delivery sampled every 1 ms,
   with and without per-term torques, and a summary-only run into the archive.
 
-Writes ``formats.json`` and ``formats.md``; ``--update-readme`` puts the table in README.md
+Writes ``formats.json`` and ``formats.md``; ``--update-docs`` puts the table in docs/replay.md
 between ``<!-- formats:begin -->`` and ``<!-- formats:end -->``.
 """
 
@@ -29,7 +29,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bowlrec.readme_blocks import replace_block
+from tools.readme_blocks import block_path, replace_block
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "h5py", "rerun", "mcap", "foxglove", "matplotlib", "scipy", "pydantic")
@@ -213,7 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--repeats", type=int, default=7)
-    ap.add_argument("--update-readme", action="store_true")
+    ap.add_argument(
+        "--update-docs", action="store_true", help="rewrite the table in docs/replay.md"
+    )
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
@@ -229,8 +231,8 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "formats.json").write_text(json.dumps(doc, indent=2) + "\n")
     table = _markdown(doc)
     (args.out / "formats.md").write_text(table)
-    if args.update_readme:
-        replace_block(ROOT / "README.md", "formats", table)
+    if args.update_docs:
+        replace_block(block_path("formats"), "formats", table)
     print(table)
     return 0
 

@@ -1,11 +1,11 @@
-"""Bounded work under hostile input: what the reported hostile inputs cost a real server, and
-a 10,000,000-run job from the command line.
+"""Bounded work under hostile input: what hostile inputs cost a real server, and a
+10,000,000-run job from the command line.
 
     python -m benchmarks.hardening [--out benchmarks/results] [--stop-at 1000000]
 
-1. **The service** (``bowlrec serve`` on 127.0.0.1, a fresh archive): each input with which a
-   hostile-input campaign exhausted the machine (1-3 GB) is sent once; for each, the status,
-   the seconds until the answer, and the server's peak resident memory (``VmHWM`` from /proc)
+1. **The service** (``bowlrec serve`` on 127.0.0.1, a fresh archive): each input that, without
+   bowlrec's input limits, would take 1-3 GB of memory is sent once; for each, the status, the
+   seconds until the answer, and the server's peak resident memory (``VmHWM`` from /proc)
    after it and how much the request raised it. The targets: every one is answered within
    1 s, refused (4xx) or accepted as a background job (the allowed large jobs), and no refused
    input raises the server's peak memory by more than 100 MB.

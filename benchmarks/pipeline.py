@@ -711,10 +711,10 @@ def main() -> None:
     (args.out / "pipeline.json").write_text(json.dumps(data, indent=2) + "\n")
     (args.out / "pipeline.md").write_text(markdown(data))
     if args.update_docs:
-        from bowlrec.readme_blocks import replace_block
+        from tools.readme_blocks import block_path, replace_block
 
-        replace_block(ROOT / "docs" / "pipeline.md", "pipeline-targets", targets_table(data))
-        replace_block(ROOT / "README.md", "pipeline-headline", data["headline"])
+        replace_block(block_path("pipeline-targets"), "pipeline-targets", targets_table(data))
+        replace_block(block_path("pipeline-headline"), "pipeline-headline", data["headline"])
     print(markdown(data))
 
 

@@ -185,8 +185,8 @@ def markdown(res: dict[str, Any]) -> str:
         "# Service latency and throughput",
         "",
         f"`python -m benchmarks.service` on {m['cpus']} CPU(s), {m['platform']}, Python "
-        f"{m['python']}; load average before {m['load_before']}, after {m['load_after']} "
-        "(the machine is shared). Summary-only scenes (closed-form solver, ~1 ms of physics); "
+        f"{m['python']}; load average before {m['load_before']}, after {m['load_after']}. "
+        "Summary-only scenes (closed-form solver: the physics is a small part of a request); "
         "a new run is answered once its segment is written and fsynced and registered in the "
         "index (SQLite, synchronous=FULL); the runs of concurrent requests share one segment "
         "(group commit), a lone request's run has a segment of its own.",

@@ -1,12 +1,13 @@
 """The heavy numerical stress variants (``pytest -m slow``), run and recorded.
 
-    python -m benchmarks.stress [--out benchmarks/results] [--update-readme]
+    python -m benchmarks.stress [--out benchmarks/results] [--update-docs]
 
 CI runs the light versions of the property-based stress tests (``tests/test_stress_*.py``); their
 heavy variants (hundreds of random legal and beyond-legal deliveries at many tolerances: no
 NaN/inf, energy and friction work, unit quaternion, mirror and body-frame relabelling
 invariance) take minutes and are marked ``slow``. This runs them, and writes every test's
-outcome and duration to ``stress.json`` and ``stress.md``. Exit status: pytest's.
+outcome and duration to ``stress.json`` and ``stress.md`` (``--update-docs``: also into the
+``stress`` block of docs/validation.md). Exit status: pytest's.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def run(out: Path, update_readme: bool = False) -> int:
+def run(out: Path, update_docs: bool = False) -> int:
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "junit.xml"
@@ -63,10 +64,10 @@ def run(out: Path, update_readme: bool = False) -> int:
     lines += [f"| `{t['test']}` | {t['outcome']} | {t['seconds']:.0f} |" for t in tests]
     table = "\n".join(lines) + "\n"
     (out / "stress.md").write_text(table)
-    if update_readme:
-        from bowlrec.readme_blocks import replace_block
+    if update_docs:
+        from tools.readme_blocks import block_path, replace_block
 
-        replace_block(ROOT / "README.md", "stress", table)
+        replace_block(block_path("stress"), "stress", table)
     print(table)
     return proc.returncode
 
@@ -74,9 +75,11 @@ def run(out: Path, update_readme: bool = False) -> int:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
-    ap.add_argument("--update-readme", action="store_true", help="rewrite the README table")
+    ap.add_argument(
+        "--update-docs", action="store_true", help="rewrite the table in docs/validation.md"
+    )
     args = ap.parse_args(argv)
-    return run(args.out, args.update_readme)
+    return run(args.out, args.update_docs)
 
 
 if __name__ == "__main__":

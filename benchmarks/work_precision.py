@@ -1,10 +1,11 @@
 """Work-precision benchmark: run time against error for bowlrec, scipy and the paper's scheme.
 
-    python -m benchmarks.work_precision [--quick] [--out benchmarks/results] [--update-readme]
-    python -m benchmarks.work_precision --remeasure [--update-readme]   # times only, best-of
+    python -m benchmarks.work_precision [--quick] [--out benchmarks/results] [--update-docs]
+    python -m benchmarks.work_precision --remeasure [--update-docs]   # times only, best-of
 
 Writes ``work_precision.json`` (every number), ``work_precision.png`` (error vs time, log-log)
-and ``work_precision.md`` (the README table) into the output directory.
+and ``work_precision.md`` (the tables of docs/performance.md) into the output directory;
+``--update-docs`` also rewrites the ``bench`` block of docs/performance.md.
 
 Reference: bowlrec at rtol 1e-12 with a 1e-8 m/s slip layer, cross-checked against scipy's DOP853
 (a different integrator family with its own event handling, ``benchmarks.methods``) at rtol 1e-12;
@@ -32,8 +33,8 @@ import numpy as np
 from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.core.plan import Plan
 from bowlrec.core.solver import kernel_call, solve
-from bowlrec.readme_blocks import replace_block
 from bowlrec.testing.scenes import random_plans, table3_plans
+from tools.readme_blocks import block_path, replace_block
 
 from .methods import run_method
 
@@ -344,7 +345,8 @@ def _speedups(results: list[dict[str, Any]], method: str, names: set[str]) -> li
 def _machine_probe() -> float:
     """Seconds for a fixed pure-Python loop (best of 3): how fast this shared machine is at the
     moment. Its speed varies by up to 2x within minutes; the probe runs before the timings,
-    before the throughput and at the end, so a slow phase shows in the JSON and the README."""
+    before the throughput and at the end, so a slow phase shows in the JSON and in
+    docs/performance.md."""
     best = math.inf
     for _ in range(3):
         t0 = time.perf_counter()
@@ -432,12 +434,12 @@ def _markdown(doc: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _write(doc: dict[str, Any], out: Path, update_readme: bool) -> None:
+def _write(doc: dict[str, Any], out: Path, update_docs: bool) -> None:
     (out / "work_precision.json").write_text(json.dumps(doc, indent=1, default=float))
     table = _targets_markdown(doc) + "\n" + _markdown(doc)
     (out / "work_precision.md").write_text(table)
-    if update_readme:
-        replace_block(ROOT / "README.md", "bench", table)
+    if update_docs:
+        replace_block(block_path("bench"), "bench", table)
 
 
 def _fastest_meeting(results: list[dict[str, Any]]) -> dict[str, Any] | None:
@@ -448,7 +450,7 @@ def _fastest_meeting(results: list[dict[str, Any]]) -> dict[str, Any] | None:
     return {"rtol": best["setting"], **best["agg"]}
 
 
-def _remeasure(out: Path, update_readme: bool) -> int:
+def _remeasure(out: Path, update_docs: bool) -> int:
     """Time bowlrec's deliveries again, then throughput and start-up, each keeping the best of its
     old and new measurement; errors, scipy and the paper's scheme are kept."""
     doc = json.loads((out / "work_precision.json").read_text())
@@ -484,7 +486,7 @@ def _remeasure(out: Path, update_readme: bool) -> int:
     doc["startup"] = {k: min(v, old_start.get(k, v)) for k, v in _startup().items()}
     probe["at_end_s"] = _machine_probe()
     doc["machine"]["python_loop_probe_s"] = probe
-    _write(doc, out, update_readme)
+    _write(doc, out, update_docs)
     _plot(results, out / "work_precision.png")
     print(json.dumps({k: doc[k] for k in ("throughput", "startup")}), probe)
     return 0
@@ -495,7 +497,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="30 random scenes, fewer settings")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--scipy-scenes", type=int, default=48, help="scenes given to scipy/paper")
-    ap.add_argument("--update-readme", action="store_true", help="rewrite the README table")
+    ap.add_argument(
+        "--update-docs", action="store_true", help="rewrite the tables in docs/performance.md"
+    )
     ap.add_argument(
         "--remeasure",
         action="store_true",
@@ -506,7 +510,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.remeasure:
-        return _remeasure(args.out, args.update_readme)
+        return _remeasure(args.out, args.update_docs)
     n_random = 30 if args.quick else 200
     plans = table3_plans() + random_plans(n_random)
     print(f"{len(plans)} scenes; computing references ...", flush=True)
@@ -549,7 +553,7 @@ def main(argv: list[str] | None = None) -> int:
         "results": [{k: v for k, v in r.items() if k != "rows"} for r in results],
         "rows": {f"{r['method']}@{r['setting']:g}": r["rows"] for r in results},
     }
-    _write(doc, args.out, args.update_readme)
+    _write(doc, args.out, args.update_docs)
     _plot(results, args.out / "work_precision.png")
     print(json.dumps({k: doc[k] for k in ("reference_cross_check", "throughput", "startup")}))
     print(json.dumps(doc["fastest_bowlrec_meeting_targets"]))

@@ -4,10 +4,8 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 from bowlrec.core.codes import RECORD_SUMMARY
-from bowlrec.readme_blocks import replace_block
 
 from .core.trajectory import Summary
 from .paper import TABLE_III, PaperCase, paper_scene
@@ -119,20 +117,11 @@ def table_cells(rows: list[ComparisonRow]) -> list[tuple[str, ...]]:
 
 
 def markdown_table(rows: list[ComparisonRow]) -> str:
-    """GitHub-flavoured Markdown table of the comparison (used in the README)."""
+    """GitHub-flavoured Markdown table of the comparison, with the notes (the Table III block of
+    docs/validation.md, written by ``python -m tools.update_table3``)."""
     lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     for cells in table_cells(rows):
         lines.append("| " + " | ".join(cells) + " |")
     lines.append("")
     lines.extend(f"- ({key}) {text}" for key, text in NOTE_TEXT.items())
     return "\n".join(lines) + "\n"
-
-
-#: the README block that holds the Table III comparison (see bowlrec.readme_blocks)
-README_BLOCK = "table3"
-
-
-def update_readme(path: str | Path, table: str) -> bool:
-    """Replace the Table III block of a README; returns True when the file changed."""
-
-    return replace_block(path, README_BLOCK, table)

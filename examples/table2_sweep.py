@@ -1,14 +1,15 @@
 """The paper's Table II assertions P1-P4, tested by sweeping a bowler-language scene.
 
-    python examples/table2_sweep.py [--update-readme]
+    python examples/table2_sweep.py [--update-docs]
 
 Base: a right-hander's 17 mph, 300 rpm, 45 deg rotation, 10 deg tilt delivery from board 15
 over board 10 at the arrows, on the paper's typical pattern (41.5 in lane), with a 15 lb ball
 (RG 2.50 in, reactive pearl) drilled 45 x 4 1/2 x 30, PAP 5 in over and 1/2 in up. Each sweep
 changes one thing; an assertion is "confirmed" when slide and entry angle both grow the way it
 says over the sweep (strictly, at every step), else "not confirmed", with the numbers.
-Writes docs/table2-sweep.md; --update-readme also puts it in README.md between
-<!-- table2:begin --> and <!-- table2:end -->.
+Prints the tables; --update-docs (run from a clone of the repository) also puts them in
+docs/bowlers.md between <!-- table2:begin --> and <!-- table2:end -->, where a test compares
+them with a fresh sweep.
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ from typing import Any
 import bowlrec
 from bowlrec.bowling.ball import StaticWeights
 from bowlrec.bowling.scene import BowlerScene
-from bowlrec.readme_blocks import replace_block
 
 ROOT = Path(__file__).resolve().parents[1]
 FT = 0.3048
@@ -145,14 +145,21 @@ def markdown(results: list[dict[str, Any]]) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--update-readme", action="store_true")
+    ap.add_argument(
+        "--update-docs", action="store_true", help="rewrite the Table II block of docs/bowlers.md"
+    )
     args = ap.parse_args()
     text = markdown(sweeps())
-    (ROOT / "docs").mkdir(exist_ok=True)
-    (ROOT / "docs" / "table2-sweep.md").write_text(text)
-    if args.update_readme:
-        replace_block(ROOT / "README.md", "table2", text)
     print(text)
+    if args.update_docs:
+        import sys
+
+        sys.path.insert(0, str(ROOT))  # tools/ is importable from the repository's root
+        from tools.readme_blocks import block_path, replace_block
+
+        path = block_path("table2")
+        changed = replace_block(path, "table2", text)
+        print(f"{path}: {'updated' if changed else 'already up to date'}")
 
 
 if __name__ == "__main__":

@@ -1,13 +1,15 @@
 """Shared pytest configuration.
 
 Helper modules of the tests (``scene_builders``, ``hostile_inputs``, ``test_service``...) import
-as top-level modules: ``pythonpath = ["tests"]`` in pyproject.toml. Shared reference deliveries
+as top-level modules, and the developer scripts in ``tools/`` as ``tools``: ``pythonpath =
+["tests", "."]`` in pyproject.toml. Shared reference deliveries
 and the paper's RK4 scheme come from :mod:`bowlrec.testing`.
 
 Kernel warm-up: before the first test, :func:`_kernels_warmed_up` runs every compiled kernel
-once (from numba's on-disk cache, or compiling it when the cache is missing or stale: about
-70 s on 2 cores), so no test's time includes the compile and child processes started by tests
-find the cache ready. Its time is printed when it finishes and again in the terminal summary.
+once (from numba's on-disk cache, or compiling it when the cache is missing or stale: about a
+minute, benchmarks/results/core_layout.md, first compile), so no test's time includes the
+compile and child processes started by tests find the cache ready. Its time is printed when it
+finishes and again in the terminal summary.
 ``--no-kernel-warm-up`` skips it (then the first test that simulates pays the compile).
 """
 

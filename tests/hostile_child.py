@@ -189,6 +189,8 @@ def cli_result_problems(
             problem("traceback", f"{cmd}: printed traceback ending {' | '.join(tail[-2:])}")
         )
     allowed = {0, 2} | ({130} if interrupted and m.huge else set())
+    if cmd == "batch" and runs_failed(stderr):
+        allowed.add(1)  # a batch whose runs failed (their rows say why) exits 1
     if code not in allowed:
         probs.append(
             problem("exit_code", f"{cmd}: exit {code}; stderr: {excerpt(stderr or stdout, 300)}")
@@ -203,15 +205,22 @@ def cli_result_problems(
         if hit:
             line = next(ln for ln in body.splitlines() if hit.group(0) in ln)
             probs.append(problem("non_finite", f"validate prints {hit.group(0)}: {excerpt(line)}"))
-    if cmd == "batch" and code in (0, 130) and out.exists():
+    if cmd == "batch" and code in (0, 1, 130) and out.exists():
         for i, line in enumerate(out.read_text(errors="replace").splitlines()):
             p = json_problems(line, f"batch table row {i}")
             if p:
                 probs += p
                 break
-    elif cmd == "batch" and code == 0:
-        probs.append(problem("exit_code", f"batch exit 0 but no table {out.name}"))
+    elif cmd == "batch" and code in (0, 1):
+        probs.append(problem("exit_code", f"batch exit {code} but no table {out.name}"))
     return probs
+
+
+def runs_failed(stderr: str) -> bool:
+    """True when a batch's summary line counts failed runs and no ``error:`` line says the
+    batch itself failed."""
+    summary = re.search(r"^\d+ runs: .*?, (\d+) failed", stderr, re.MULTILINE)
+    return summary is not None and int(summary.group(1)) > 0 and "error:" not in stderr
 
 
 # -- the in-process CLI channel ------------------------------------------------------------------

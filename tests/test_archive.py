@@ -533,7 +533,7 @@ def test_committed_v2_fixture_archive_still_reads(tmp_path: Path) -> None:
         assert stored.ball_ref == "fixture-ball@1"
         assert stored.trajectory.summary.outcome == row["outcome"] == "pins"
         assert stored.trajectory.summary.hook_m == row["hook_m"]
-        # the stored physics still agrees with today's kernel (tolerance: 1e-6 m of hook, far
+        # the stored physics still agrees with this tree's kernel (tolerance: 1e-6 m of hook, far
         # above the 1e-9 rtol and far below any physical change)
         again = bowlrec.simulate(stored.scene)
         assert again.summary.hook_m == pytest.approx(row["hook_m"], abs=1e-6)

@@ -325,7 +325,7 @@ def test_sigkill_campaign_loses_nothing_reported(tmp_path: Path, template: Templ
 def test_sigkill_campaign_heavy(
     tmp_path: Path, template: Template, request: pytest.FixtureRequest
 ) -> None:
-    """Heavy variant: 20 kills with every reported run loaded, 4 concurrent rounds (~1 min)."""
+    """Heavy variant: 20 kills with every reported run loaded, 4 concurrent rounds."""
     require_slow_selected(request)
     _kill_campaign(tmp_path / "a", template, kills=20, concurrent_rounds=4, loads=None, seed=2)
 
@@ -688,9 +688,9 @@ def test_full_disk_stops_a_batch_with_one_line_and_its_table(
     cmd = [*_bowlrec_cli(), "batch", str(job), "-a", str(root), "--workers", "0", "--quiet"]
     out = subprocess.run([*cmd, "--out", str(tmp_path / "t1")], capture_output=True, text=True)
     assert out.returncode == 1, out.stderr
-    lines = out.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("error:"), out.stderr
-    assert re.search(r"no space", lines[0], re.IGNORECASE), lines[0]
+    lines = out.stderr.strip().splitlines()  # --quiet: the summary line and the error
+    assert len(lines) == 2 and lines[0].startswith("40 runs: "), out.stderr
+    assert lines[1].startswith("error:") and re.search(r"no space", lines[1], re.IGNORECASE)
     with open(tmp_path / "t1.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert 0 < len(rows) <= 40

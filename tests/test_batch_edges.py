@@ -1,5 +1,5 @@
-"""Edge cases of the batch engine found in review: ship mode on a rerun, boolean sweeps in
-tables, table files next to replay folders, and library balls with sample outputs."""
+"""Edge cases of the batch engine: ship mode on a rerun, boolean sweeps in tables, table files
+next to replay folders, and library balls with sample outputs."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The README's benchmark tables are the committed result files, not hand edits."""
+"""The benchmark tables of README.md and docs/ are the committed result files, not hand edits."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from bowlrec.readme_blocks import read_block
+from tools.readme_blocks import block_path, read_block
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = ROOT / "benchmarks" / "results"
@@ -17,8 +17,8 @@ RESULTS = ROOT / "benchmarks" / "results"
     ("block", "table"),
     [("bench", "work_precision.md"), ("formats", "formats.md"), ("stress", "stress.md")],
 )
-def test_readme_block_is_the_committed_result_table(block: str, table: str) -> None:
-    assert read_block(ROOT / "README.md", block) == (RESULTS / table).read_text()
+def test_docs_block_is_the_committed_result_table(block: str, table: str) -> None:
+    assert read_block(block_path(block), block) == (RESULTS / table).read_text()
 
 
 def test_committed_heavy_stress_run_passed() -> None:
@@ -28,7 +28,7 @@ def test_committed_heavy_stress_run_passed() -> None:
 
 
 def test_committed_targets_match_the_measured_numbers() -> None:
-    """The 'met' column of the README's target table follows from the JSON's numbers."""
+    """The 'met' column of docs/performance.md's target table follows from the JSON's numbers."""
     doc = json.loads((RESULTS / "work_precision.json").read_text())
     best = doc["fastest_bowlrec_meeting_targets"]
     targets = doc["targets"]
@@ -40,7 +40,7 @@ def test_committed_targets_match_the_measured_numbers() -> None:
         "batch": doc["throughput"]["summary_all_threads_per_s"] >= 30000.0,
         "cli": doc["startup"]["cli_simulate_cold_shell_s"] <= 1.5,
     }
-    rows = read_block(ROOT / "README.md", "bench").splitlines()[2:6]
+    rows = read_block(block_path("bench"), "bench").splitlines()[2:6]
     said = [row.rstrip(" |").rsplit("|", 1)[1].strip() == "yes" for row in rows]
     assert said[0] == met["median"] and said[2] == met["batch"] and said[3] == met["cli"]
 
@@ -58,7 +58,7 @@ def test_archive_format_doc_shows_the_committed_archive_targets() -> None:
     """docs/archive-format.md's cost table is the committed benchmark's, and each 'met' cell
     follows from the measured number and its limit in archive.json."""
     table = _targets_table((RESULTS / "archive.md").read_text())
-    assert read_block(ROOT / "docs" / "archive-format.md", "archive-targets") == table
+    assert read_block(block_path("archive-targets"), "archive-targets") == table
     doc = json.loads((RESULTS / "archive.json").read_text())
     assert doc["build"]["runs_indexed"] >= 1_000_000  # committed from the full-size run
     for target in doc["targets"]:
@@ -74,8 +74,8 @@ def test_pipeline_doc_and_readme_show_the_committed_pipeline_run() -> None:
     doc = json.loads((RESULTS / "pipeline.json").read_text())
     assert not doc["quick"] and doc["runs"] >= 200_000
     table = _targets_table((RESULTS / "pipeline.md").read_text())
-    assert read_block(ROOT / "docs" / "pipeline.md", "pipeline-targets") == table
-    assert read_block(ROOT / "README.md", "pipeline-headline") == doc["headline"]
+    assert read_block(block_path("pipeline-targets"), "pipeline-targets") == table
+    assert read_block(block_path("pipeline-headline"), "pipeline-headline") == doc["headline"]
     for target in doc["targets"]:
         assert target["met"] == (target["measured"] >= target["limit"]), target["key"]
         row = next(r for r in table.splitlines() if r.startswith(f"| {target['what']} |"))

@@ -95,7 +95,7 @@ def test_bowling_cli_commands(tmp_path: Path) -> None:
     assert load_scene(path) == BowlerScene().to_scene()
 
 
-def test_readme_table2_block_is_the_computed_one() -> None:
+def test_docs_table2_block_is_the_computed_one() -> None:
     import importlib.util
 
     root = Path(__file__).parents[1]
@@ -106,10 +106,10 @@ def test_readme_table2_block_is_the_computed_one() -> None:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     text = module.markdown(module.sweeps())
-    from bowlrec.readme_blocks import read_block
+    from tools.readme_blocks import block_path, read_block
 
-    block = read_block(root / "README.md", "table2")
-    assert block == text, "run: python examples/table2_sweep.py --update-readme"
+    block = read_block(block_path("table2"), "table2")
+    assert block == text, "run: python examples/table2_sweep.py --update-docs"
 
 
 def test_curated_library_goes_into_the_archive_and_drives_bowler_scenes(tmp_path: Path) -> None:

@@ -98,8 +98,9 @@ def test_import_bowlrec_does_not_load_numba_or_the_cli_stack() -> None:
     assert out.stdout.split() == ["False", "False", "False", "False"]
 
 
-def test_readme_table_is_the_computed_one() -> None:
+def test_docs_table3_block_is_the_computed_one() -> None:
     from bowlrec.paper_table import markdown_table, run_paper_cases
+    from tools.readme_blocks import block_path, read_block
 
-    readme = (ROOT / "README.md").read_text()
-    assert markdown_table(run_paper_cases()) in readme, "regenerate with: bowlrec paper --markdown"
+    block = read_block(block_path("table3"), "table3")
+    assert block == markdown_table(run_paper_cases()), "regenerate: python -m tools.update_table3"

@@ -38,9 +38,9 @@ from bowlrec.bowling.surface import (
 )
 from bowlrec.bowling.units import IN_M
 from bowlrec.errors import SceneInputError
-from bowlrec.readme_blocks import read_block
 from bowlrec.scene_input import parse_scene
 from bowlrec.spec import format_validation_error
+from tools.readme_blocks import read_block
 
 ROOT = Path(__file__).resolve().parents[1]
 W415 = 41.5 * IN_M

@@ -1,5 +1,5 @@
 """Friction break points on the lane's edges (pins line, gutters) must not hide the end of the
-run: a zone covering exactly the whole lane once sent case 8 to x = 348 m (max_time)."""
+run: a zone covering exactly the whole lane must still end case 8 at the pins, not at max_time."""
 
 from __future__ import annotations
 

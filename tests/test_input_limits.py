@@ -1,9 +1,9 @@
 """Bounded work and finite answers: the physical limits of a scene, the samples per run, the runs
 per job, and user errors as one line naming the file, the line or the field (exit 2).
 
-The inputs are the ones a hostile-input campaign found: a tiny ``record_dt_s``, spins and speeds
-of 1e300, a grid of 1e8 points, an LHS too big for memory, YAML syntax errors, aliases, tags and
-deep nesting, a bowler scene with no spin, and sweep sizes that gave a screen of union errors.
+The inputs: a tiny ``record_dt_s``, spins and speeds of 1e300, a grid of 1e8 points, an LHS too
+big for memory, YAML syntax errors, aliases, tags and deep nesting, a bowler scene with no spin,
+and sweep sizes that would otherwise give a screen of union errors.
 """
 
 from __future__ import annotations

@@ -22,8 +22,8 @@ s = R_con x w - v = (R w_y - v_x, -R w_x - v_y)):
 
 The right-hand side is piecewise constant, so the Dormand-Prince steps reproduce these
 polynomials to rounding and the slide->roll root is located to ~1e-15 in time; the only other
-errors are the rounding accumulated over ~10^3-10^4 steps (~1e-13). Tolerance: 1e-9 relative
-(as asked), with the observed agreement reported in the assertion messages.
+errors are the rounding accumulated over ~10^3-10^4 steps (~1e-13). Tolerance: 1e-9 relative,
+with the observed agreement reported in the assertion messages.
 """
 
 from __future__ import annotations

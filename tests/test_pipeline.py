@@ -853,9 +853,8 @@ def test_cli_batch_no_archive_writes_exactly_the_table(
     else:
         monkeypatch.delenv("BOWLREC_ARCHIVE", raising=False)
     out = out_dir / f"t{suffix}"
-    result = CliRunner().invoke(
-        app, ["batch", str(job_path), "--no-archive", "--out", str(out), "-j", "0", "--quiet"]
-    )
+    args = ["batch", str(job_path), "--no-archive", "--out", str(out), "-j", "0", "--quiet"]
+    result = CliRunner().invoke(app, [*args, "--allow-failures"])  # the job has failed runs
     assert result.exit_code == 0, result.output
     assert sorted(p.name for p in out_dir.iterdir()) == [out.name]
     assert sorted(p.name for p in jobs.iterdir()) == ["job.json"]

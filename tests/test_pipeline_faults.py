@@ -4,10 +4,10 @@ writes; every run reported done must then be indexed and readable, and rerunning
 must finish it with no run lost, none simulated twice and no duplicate copy.
 
 The job: a random sweep of ``N_RUNS`` summary-only runs over ``delivery.speed_mps`` and
-``delivery.omega_radps[1]`` of the paper's scene 16 (``options.rtol`` 2e-4: the integrator, a
-few ms a run), in chunks of ``CHUNK`` runs (``bowlrec batch --chunk-size``; the service's
-engine default is cut to ``SERVICE_CHUNK`` by tests/pipeline_fault_child.py), so that a job
-seals dozens of segments and a kill lands between or inside segment writes.
+``delivery.omega_radps[1]`` of the paper's scene 16 (``options.rtol`` 2e-4: the integrator),
+in chunks of ``CHUNK`` runs (``bowlrec batch --chunk-size``; the service's engine default is cut
+to ``SERVICE_CHUNK`` by tests/pipeline_fault_child.py), so that a job seals dozens of segments
+and a kill lands between or inside segment writes.
 
 Kill kinds (one episode = one fresh archive and job, one or two kills, then a rerun to the end):
 

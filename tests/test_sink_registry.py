@@ -3,6 +3,7 @@ read back by its own reader, and every place that writes runs going through it."
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import subprocess
@@ -32,6 +33,7 @@ SUFFIXES = {
     "mcap": (".mcap",),
     "rrd": (".rrd",),
     "npz": (".npz",),
+    "csv": (".csv",),
     "plot": (".png", ".svg"),
     "scene": (".json",),
 }
@@ -67,8 +69,8 @@ def test_an_unknown_suffix_is_one_input_error_line_naming_the_known_ones() -> No
     assert all(s in message for s in known_suffixes()) and "\n" not in message
     with pytest.raises(UnknownFormatError, match="^run: no suffix"):
         sink_for("run")
-    with pytest.raises(UnknownFormatError, match="unknown output format 'csv'"):
-        sink_named("csv")
+    with pytest.raises(UnknownFormatError, match="unknown output format 'xlsx'"):
+        sink_named("xlsx")
     with pytest.raises(UnknownFormatError, match="^x.rrd: a rerun file holds one run; several"):
         sink_named("rrd").write_many([], "x.rrd")
 
@@ -93,6 +95,11 @@ def _read_back(name: str, path: Path, run: RunData) -> None:
     elif name == "npz":
         with np.load(path) as z:
             assert np.array_equal(z["position_m"], traj.position_m)
+    elif name == "csv":
+        with open(path, newline="") as fh:
+            header, *rows = list(csv.reader(fh))
+        assert header[:4] == ["t_s", "x_m", "y_m", "z_m"] and len(rows) == traj.n_samples
+        assert np.array_equal([[float(v) for v in r[1:4]] for r in rows], traj.position_m)
     elif name == "plot":
         head = path.read_bytes()[:8]
         assert head == b"\x89PNG\r\n\x1a\n" if path.suffix == ".png" else b"<?xml" in head
@@ -109,6 +116,27 @@ def test_each_sink_writes_a_file_its_reader_opens(
     assert sink.write(run, path) == path
     _read_back(sink.name, path, run)
     assert sorted(p.name for p in path.parent.iterdir()) == [path.name]  # no temporary left
+
+
+@pytest.mark.parametrize("name", list(SUFFIXES))
+def test_each_sink_writes_exactly_the_path_it_is_given(
+    name: str, run: RunData, tmp_path: Path
+) -> None:
+    """The path returned is the path asked, whatever the case of its suffix (and, but for a
+    plot, whose suffix picks PNG or SVG, whatever its suffix), and no other file appears."""
+    sink = sink_named(name)
+    asked = [tmp_path / f"run{s}" for s in sink.suffixes]
+    asked += [tmp_path / f"RUN{s.upper()}" for s in sink.suffixes]
+    if name != "plot":
+        asked += [tmp_path / "run.data", tmp_path / "run"]
+    for path in asked:
+        assert sink.write(run, path) == path
+        assert path.stat().st_size > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in asked)
+    if sink.many is not None:
+        many = tmp_path / "many" / f"Two{sink.suffix.upper()}"
+        assert sink.write_many([run, run], many) == many
+        assert [p.name for p in many.parent.iterdir()] == [many.name]
 
 
 def test_sinks_of_several_runs(run: RunData, tmp_path: Path) -> None:
@@ -180,7 +208,7 @@ def test_a_missing_library_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> N
 def test_start_up_loads_no_format_library() -> None:
     """``import bowlrec``, the registry and ``bowlrec --help`` (whose help texts list the
     registry's suffixes) load no format library, not even NumPy."""
-    heavy = ("numpy", "h5py", "rerun", "mcap", "foxglove", "matplotlib")
+    heavy = ("numpy", "h5py", "rerun", "mcap", "foxglove", "matplotlib", "pandas")
     for argv in (["--help"], ["simulate", "--help"], ["runs", "export", "--help"]):
         code = (
             "import atexit, json, sys\n"
@@ -223,7 +251,7 @@ def test_the_cli_writes_through_the_registry(
     assert result.exit_code == 0, result.output
     assert "NumPy: " in result.output and "MCAP: " in result.output
     rid = Archive(arch).list_runs()[0]["run_id"]
-    for out in ("run.h5", "run.json", "run.png"):
+    for out in ("run.h5", "run.json", "run.png", "run.csv"):
         result = runner.invoke(
             app, ["runs", "export", rid, "-a", arch, "--out", str(tmp_path / out)]
         )
@@ -236,6 +264,7 @@ def test_the_cli_writes_through_the_registry(
         ("hdf5", "run.h5"),
         ("scene", "run.json"),
         ("plot", "run.png"),
+        ("csv", "run.csv"),
         ("rrd", "r.rrd"),
     ]
 

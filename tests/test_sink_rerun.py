@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -249,6 +250,47 @@ def test_summary_only_run_raises_and_writes_nothing(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
     with pytest.raises(SamplesRequiredError, match="rerun live stream needs samples"):
         stream_run(run, connect_url="rerun+http://127.0.0.1:9/proxy")
+
+
+def _summary_document(path: Path) -> str:
+    """The /summary TextDocument's markdown."""
+    texts = [
+        text
+        for e, _, batch in _chunks(path)
+        if e == "/summary"
+        for text in batch.column("TextDocument:text").flatten().to_pylist()
+    ]
+    assert len(texts) == 1
+    return str(texts[0])
+
+
+def test_summary_document_uses_the_cli_units(run: RunData, rrd: Path) -> None:
+    s = run.trajectory.summary
+    assert s.slide_m is not None and s.hook_m is not None and s.pocket_deg is not None
+    text = _summary_document(rrd)
+    # the headline and the table give the hook in cm (as `bowlrec simulate`), never in mm
+    assert f"hook {100 * s.hook_m:.2f} cm" in text
+    assert f"| hook | {100 * s.hook_m:.2f} cm |" in text
+    assert re.search(r"\d mm\b", text) is None
+    assert f"| slide | {s.slide_m:.3f} m |" in text
+    assert f"| pocket angle | {s.pocket_deg:.2f} deg |" in text
+    assert f"| time | {s.time_s:.4f} s |" in text
+    assert f"| end speed | {s.speed_end_mps:.3f} m/s |" in text
+    assert f"| end rev rate | {s.rev_rate_end_rpm:.1f} rpm |" in text
+    assert f"| end position | x {s.x_end_m:.3f} m, y {s.y_end_m:.3f} m |" in text
+
+
+def test_summary_document_of_a_run_that_never_rolls() -> None:
+    data = json.loads((ROOT / "examples/paper/case06.json").read_text())
+    data["options"].update(record="rate", record_dt_s=0.01)
+    scene = Scene.model_validate(data)
+    run = RunData(scene=scene, plan=scene.resolve(), trajectory=bowlrec.simulate(scene))
+    assert run.trajectory.summary.slide_m is None
+    text = rerun_recording._summary_markdown(run)
+    assert "| slide | never rolls |" in text
+    assert "slide" not in text.splitlines()[2]  # the headline names no slide
+    hook = run.trajectory.summary.hook_m
+    assert hook is not None and f"| hook | {100 * hook:.2f} cm |" in text
 
 
 def test_sinks_package_does_not_import_rerun() -> None:

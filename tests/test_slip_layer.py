@@ -1,9 +1,8 @@
 """The end of a slide at loose tolerances: the radial slip layer, the step aimed at the layer,
 the error-checked step to an event, and the skipped event scan.
 
-Before these, the slide distance was the least accurate output by far: at rtol 1e-6 it was off by
-up to 6 mm (and by 0.5 m at 1e-5) on balls whose slip approaches zero slowly or along a curve,
-while hook and pocket were within 0.02 mm and 0.0002 deg.
+Without them a step across |s| = 0 reports the slide end late (up to 6 mm at rtol 1e-6 on slowly
+decaying or curving slips); each test pins one mechanism.
 """
 
 from __future__ import annotations

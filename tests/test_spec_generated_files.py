@@ -8,24 +8,30 @@ import pytest
 
 from bowlrec.paper import TABLE_III, paper_scene, write_paper_examples
 from bowlrec.spec import load_scene
-from bowlrec.spec.schema_export import SCHEMA_MODELS, export_schemas, schema_text
+from bowlrec.spec.schema_export import SCHEMAS, export_schemas, schema_file
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.parametrize("name", sorted(SCHEMA_MODELS))
+@pytest.mark.parametrize("name", sorted(SCHEMAS))
 def test_committed_schema_is_up_to_date(name: str) -> None:
-    path = ROOT / "schemas" / name
-    assert path.exists(), f"{path} is missing: run `bowlrec schema` to write it"
-    assert path.read_text(encoding="utf-8") == schema_text(SCHEMA_MODELS[name]), (
-        f"{path} differs from {SCHEMA_MODELS[name].__name__}.model_json_schema(): "
-        "run `bowlrec schema` (bowlrec.spec.schema_export.export_schemas) to regenerate it"
+    path = ROOT / "schemas" / schema_file(name)
+    assert path.exists(), f"{path} is missing: run `bowlrec schema --out schemas` to write it"
+    assert path.read_text(encoding="utf-8") == SCHEMAS[name](), (
+        f"{path} differs from the model's JSON Schema: run `bowlrec schema --out schemas` "
+        "to regenerate it"
     )
+
+
+def test_committed_schemas_are_all_generated() -> None:
+    """No file in schemas/ is left over from a schema that no longer exists."""
+    committed = sorted(p.name for p in (ROOT / "schemas").glob("*.schema.json"))
+    assert committed == sorted(schema_file(n) for n in SCHEMAS)
 
 
 def test_export_schemas(tmp_path: Path) -> None:
     paths = export_schemas(tmp_path / "out")
-    assert sorted(p.name for p in paths) == sorted(SCHEMA_MODELS)
+    assert sorted(p.name for p in paths) == sorted(schema_file(n) for n in SCHEMAS)
     assert all(p.read_text().endswith("}\n") for p in paths)
 
 

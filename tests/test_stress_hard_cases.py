@@ -367,12 +367,13 @@ def test_repeated_stick_slip_is_bounded_and_converged(case: int) -> None:
     assert abs(a.slide_m - b.slide_m) < 1e-4
 
 
-# ----------------------------------------------------------------------------- known bugs
+# ------------------------------------------------------------- uniform balls with a tiny offset
 
 
 #: deliveries that must finish: a uniform ball (equal radii of gyration) with a small, legal
 #: center-of-mass offset; a real ball is rarely balanced this well, but nothing about it is
-#: extreme (speeds, spins and friction are typical). Each currently stalls.
+#: extreme (speeds, spins and friction are typical). Each must reach the pins at the closed-form
+#: slide.
 TINY_OFFSET_BALLS = [
     # (offset (m), mu, speed (m/s), omega (rad/s))
     ((0.0, 1e-7, 0.0), 0.12, 8.0, (0.0, 20.0, 0.0)),
@@ -381,9 +382,9 @@ TINY_OFFSET_BALLS = [
     ((0.0, 1e-8, 0.0), 0.04, 3.0, (0.0, 0.0, 0.0)),
 ]
 
-#: the same with a 0.1 mm offset, found by hypothesis: zero spin, released near the edge of the
-#: oil of the typical pattern (it crosses into the dry while sliding); 1.1 x the offset finishes
-#: normally (gutter after slide->roll), 0.5-0.9 x stall
+#: the same with a 0.1 mm offset: zero spin, released near the edge of the oil of the typical
+#: pattern (it crosses into the dry while sliding); like 0.5-1.1 x its offset, it must reach the
+#: gutter after slide->roll
 OFFSET_0P1MM = scene(
     rg=(0.068359375,) * 3,
     offset=(7.806247497997999e-05, 0.0, 6.25e-05),
@@ -399,7 +400,7 @@ def test_uniform_ball_with_tiny_offset_reaches_pins() -> None:
     """Expected: the uniform-ball closed form (the offset changes the slide by far less than
     1e-4 m): outcome "pins", slide_m = x* to 1e-4 m; and for OFFSET_0P1MM what 1.1 x its offset
     does: slide->roll, then the gutter. Capped at 20,000 steps (a legitimate run takes a few
-    hundred) so that a stall costs ~0.5 s instead of 2,000,000 steps."""
+    hundred) so that a stall fails fast instead of running 2,000,000 steps."""
 
     def run(d: dict[str, Any]) -> Any:
         plan = dataclasses.replace(

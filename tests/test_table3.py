@@ -1,8 +1,9 @@
 """The paper's Table III: all 18 cases, both readings of the text, and the known differences.
 
-Tolerances are those the independent re-derivation established (issue #2, section 6): the printed
-numbers are rounded (hook to 1 cm, pocket to 0.1 deg) and some are not reproducible from the
-text, so those cases are asserted as explicit, named differences rather than skipped.
+Tolerances are those the independent re-derivation established (the Table III notes in
+docs/validation.md): the printed numbers are rounded (hook to 1 cm, pocket to 0.1 deg) and some
+are not reproducible from the text, so those cases are asserted as explicit, named differences
+rather than skipped.
 """
 
 from __future__ import annotations
@@ -100,7 +101,7 @@ def test_known_difference_typical_pattern_slides_short_with_oil_to_40ft(
 
 
 def test_stick_slip_cases_5_and_18_switch_back_to_sliding(rows: dict[int, ComparisonRow]) -> None:
-    # realistic deliveries where the rolling ball needs more friction than mu N (issue #2, sec. 3)
+    # realistic deliveries where the rolling ball needs more friction than mu N (docs/physics.md)
     for case in (5, 18):
         assert rows[case].as_written.n_events > 4
 

@@ -98,8 +98,8 @@ def write_segment(
     """Write a segment file at ``path`` whole or not at all (see :mod:`bowlrec.archive.segment`).
 
     ``samples``: how per-sample datasets (trajectory, torques) are stored, "gzip" (shuffle +
-    gzip, about 2/3 of the bytes) or "none" (several times faster to write); readers see no
-    difference, and compaction rewrites segments with gzip."""
+    gzip, fewer bytes) or "none" (faster to write; benchmarks/results/pipeline.md compares
+    them); readers see no difference, and compaction rewrites segments with gzip."""
     if samples not in SAMPLE_FILTERS:
         raise ValueError(f"samples = {samples!r} must be one of {', '.join(SAMPLE_FILTERS)}")
     terms = columns["_terms"]
@@ -134,7 +134,8 @@ def write_segment(
 _SMALL_BYTES = 4096
 #: target chunk sizes (bytes): per-run and per-event columns are read whole (listing, index
 #: rebuilds, repair), so they get large chunks that compress best; samples and scenes are read
-#: one run at a time, so their chunks stay small enough to decompress in well under 1 ms
+#: one run at a time, so their chunks stay small enough that one run's read decompresses little
+#: beyond that run (load times: benchmarks/results/archive.md)
 _CHUNK_BYTES = {"runs": 1 << 20, "summary": 1 << 20, "events": 1 << 20}
 _SLICED_CHUNK_BYTES = 1 << 15
 _SLICED = {"scene_json", "message"}

@@ -38,10 +38,12 @@ from bowlrec.archive.provenance import environment
 from bowlrec.archive.run_id import run_id as content_id
 from bowlrec.archive.tombstones import Tombstone
 from bowlrec.atomic_files import atomic_path
+from bowlrec.core.codes import OUTCOMES
 from bowlrec.errors import (
     ArchiveError,
     ArchiveWriteError,
     IndexUnreadableError,
+    InputError,
     RunDamagedError,
     RunNotFoundError,
     SegmentError,
@@ -532,6 +534,12 @@ class Archive:
         ``ball`` is a library name or ``name@version``; ``where`` holds conditions such as
         ``"hook_m>=0.1"`` (any index column, ops <= >= != = < >). Reads only the index.
         """
+        if outcome is not None and outcome not in OUTCOMES.values():
+            raise InputError(
+                f"outcome {outcome!r} is not an outcome; the outcomes are "
+                + ", ".join(OUTCOMES.values())
+                + " ('pins': the ball reached the pins)"
+            )
         filters = [w if isinstance(w, Filter) else Filter.parse(w) for w in where]
         clauses = [] if ball is None else [self._ball_clause(ball)]
         for column, value in (("pattern", pattern), ("outcome", outcome), ("name", name)):

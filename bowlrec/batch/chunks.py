@@ -151,6 +151,8 @@ class ChunkResult:
     simulated: int = 0
     simulate_s: float = 0.0
     write_s: float = 0.0
+    #: the worker's time for the whole chunk (preparation, simulation, writes), s
+    worker_s: float = 0.0
     replays: list[Path] = field(default_factory=list)
     #: a write that failed in the worker (full disk): its runs are failed rows
     error: str | None = None
@@ -184,6 +186,13 @@ def _archive(root: str) -> Archive:
 
 def run_chunk(task: ChunkTask) -> ChunkResult:
     """Prepare, simulate and store runs ``task.start`` to ``task.stop`` (in a worker)."""
+    began = time.perf_counter()
+    result = _run_chunk(task)
+    result.worker_s = time.perf_counter() - began
+    return result
+
+
+def _run_chunk(task: ChunkTask) -> ChunkResult:
     ctx = task.context
     writes = task.target is not None and task.target.worker_writes()
     archive = _archive(task.target.root) if writes and task.target is not None else None

@@ -307,8 +307,9 @@ class JobSpec(_JobModel):
     )
     samples: Literal["gzip", "none"] = Field(
         default="gzip",
-        description="How recorded samples are stored: gzip (compact) or none (several times "
-        "faster to write, about 1.6x the bytes; `bowlrec runs compact` recompresses later).",
+        description="How recorded samples are stored: gzip (compact) or none (faster to write, "
+        "larger; benchmarks/results/pipeline.md compares them; `bowlrec runs compact` "
+        "recompresses later).",
     )
     formats: list[Literal["mcap", "rrd"]] = Field(
         default_factory=list,
@@ -776,9 +777,9 @@ def prepare_runs(
     base_dir: str | Path = ".",
     balls: BallLibrary | None = None,
 ) -> list[PreparedRun]:
-    """Expand the whole job and prepare every run in this process (validate, resolve, run ID:
-    about 0.1 ms per physical and 1-2 ms per bowler run). Batches prepare in their workers,
-    chunk by chunk (:func:`bowlrec.batch.run_job`); this is for inspecting a job's runs.
+    """Expand the whole job and prepare every run in this process (validate, resolve, run ID;
+    per-run costs: benchmarks/results/pipeline.md). Batches prepare in their workers, chunk by
+    chunk (:func:`bowlrec.batch.run_job`); this is for inspecting a job's runs.
 
     Raises JobError for a job that is wrong as a whole; an invalid combination becomes a
     PreparedRun with ``error`` set. ``base_dir``: where relative scene paths are resolved (the

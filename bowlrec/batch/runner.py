@@ -28,7 +28,6 @@ import os
 import signal
 import threading
 import time
-from collections import deque
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Executor, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -56,6 +55,7 @@ from .chunks import (
 )
 from .job import JobSpec, job_context
 from .lifeline import Lifeline, bind_worker, lifeline
+from .spans import Spans
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -491,8 +491,8 @@ def _drive(
     cancel: threading.Event,
 ) -> None:
     total = orch.total
-    size = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel)
-    ranges = deque((s, min(s + size, total)) for s in range(0, total, size))
+    cap = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel)
+    ranges = Spans(total, cap, fixed=chunk_size is not None)
     inflight: dict[Future[ChunkResult], tuple[int, int]] = {}
     retried: set[tuple[int, int]] = set()
     result = orch.result
@@ -505,6 +505,7 @@ def _drive(
             error = f"worker: {type(err).__name__}: {err}"
             orch.emit(span[0], _unrun(orch.ctx, *span, "failed", error))
             return
+        ranges.timed(res.stop - res.start, res.worker_s)
         orch.take(res)
         if orch.result.error is not None:
             cancel.set()
@@ -522,11 +523,11 @@ def _drive(
                 orch.emit(span[0], _unrun(orch.ctx, *span, "failed", error))
             else:
                 retried.add(span)
-                ranges.appendleft(span)
+                ranges.give_back(span)
 
     while (ranges or inflight) and not cancel.is_set():
         while ranges and len(inflight) < 2 * workers.parallel:
-            span = ranges.popleft()
+            span = ranges.pop()
             task = ChunkTask(orch.ctx, span[0], span[1], orch.target)
             inflight[workers.pool.submit(run_chunk, task)] = span
         finished, _ = wait(list(inflight), timeout=0.2, return_when=FIRST_COMPLETED)
@@ -545,9 +546,9 @@ def _drive(
         result.cancelled = True
         for fut, span in list(inflight.items()):
             if fut.cancel():
-                ranges.appendleft(span)
+                ranges.give_back(span)
             elif workers.broken():
-                ranges.appendleft(span)  # its worker died: not run
+                ranges.give_back(span)  # its worker died: not run
             else:
                 settle(fut, span)
         # the table ends with the last run reached: runs before it that did not run are rows
@@ -555,7 +556,7 @@ def _drive(
         # are only counted (a cancelled 10,000,000-run job writes no 10,000,000 rows)
         error = None if result.error is None else f"not archived: {result.error}"
         end = max([orch.next_row, *(s + len(t) for s, t in orch.ready.items())])
-        for start, stop in sorted(ranges):
+        for start, stop in ranges.left():
             if start < end:
                 status = "cancelled" if error is None else "failed"
                 orch.emit(start, _unrun(orch.ctx, start, min(stop, end), status, error))

@@ -2,21 +2,26 @@
 
 from __future__ import annotations
 
-from typing import Any
+import platform
+from typing import Annotated, Any
 
 import typer
 from typer.core import TyperGroup
 
-from bowlrec.cli._common import exit_for
+from bowlrec.cli._common import EXIT_INTERRUPTED, exit_for
 
 
 class _Commands(TyperGroup):
     """The command group: an error raised by any command (sub-commands included) goes through
-    :func:`bowlrec.cli._common.exit_for`, the one place errors become exit codes."""
+    :func:`bowlrec.cli._common.exit_for`, the one place errors become exit codes; a Ctrl-C
+    that no command handles itself ends with one line and status 130 (128 + SIGINT)."""
 
     def invoke(self, ctx: Any) -> Any:  # typer's bundled click.Context
         try:
             return super().invoke(ctx)
+        except KeyboardInterrupt:
+            typer.echo("\ninterrupted", err=True)
+            raise typer.Exit(EXIT_INTERRUPTED) from None
         except Exception as err:
             exit_for(err)
             raise
@@ -27,10 +32,47 @@ app = typer.Typer(
     help="Bowling-ball motion simulator (Frohlich 2004 exact equations of motion) and "
     "trajectory archive.",
     no_args_is_help=True,
-    add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode="markdown",
     cls=_Commands,
+    # -h as well as --help, on every command (click passes the names down to sub-commands)
+    context_settings={"help_option_names": ["-h", "--help"]},
 )
+
+
+def version_line() -> str:
+    """``bowlrec X.Y.Z (physics N, bowler layer N; Python X.Y.Z)``: what ``--version``
+    prints. The physics version is part of every run ID, so two installs with the same one
+    give the same runs."""
+    from bowlrec import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
+
+    return (
+        f"bowlrec {__version__} (physics {PHYSICS_VERSION}, bowler layer "
+        f"{BOWLER_LAYER_VERSION}; Python {platform.python_version()})"
+    )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(version_line())
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            "-V",
+            help="Print the version and exit.",
+            callback=_print_version,
+            is_eager=True,
+        ),
+    ] = False,
+) -> None:
+    """Bowling-ball motion simulator (Frohlich 2004 exact equations of motion) and trajectory
+    archive."""
 
 
 def main() -> None:

@@ -63,6 +63,9 @@ def fail(message: str, code: int = 2) -> NoReturn:
     raise typer.Exit(code)
 
 
+#: exit code after Ctrl-C (128 + SIGINT), as shells report it
+EXIT_INTERRUPTED = 130
+
 #: the exit code of each category of error (the first category an error belongs to): 2 for
 #: what the command line asked that cannot be done as asked (fix the input or the request),
 #: 1 for what went wrong while doing it
@@ -184,6 +187,24 @@ def with_progress(
     ) as progress:
         task = progress.add_task(description, total=total)
         return work(lambda _item: progress.advance(task))
+
+
+def print_table(table: Any) -> None:
+    """Print a rich table without losing a character: in a terminal every column folds long
+    values onto further lines instead of cutting them; piped or redirected, the table is as
+    wide as its widest row needs (no terminal width applies, no colour codes)."""
+    from rich.console import Console
+    from rich.measure import Measurement
+
+    for column in table.columns:
+        column.overflow = "fold"
+        column.no_wrap = False
+    if sys.stdout.isatty():
+        Console().print(table)
+        return
+    probe = Console(width=100_000, no_color=True, highlight=False)
+    width = Measurement.get(probe, probe.options, table).maximum
+    Console(width=max(width, 20), no_color=True, highlight=False, soft_wrap=False).print(table)
 
 
 def summary_json(summary: Any) -> dict[str, Any]:

@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from bowlrec.errors import UnknownFormatError
 from bowlrec.sinks.registry import known_suffixes, sink_for, sink_named
 
 if TYPE_CHECKING:
@@ -50,11 +51,20 @@ def requested_files(
     plot: Path | None = None,
 ) -> list[tuple[Sink, Path]]:
     """The (sink, file) pairs asked for: ``out`` by its suffix (UnknownFormatError for one
-    no sink has), the others by their option."""
+    no sink has), the others by their option (UnknownFormatError when the file's suffix is
+    not the option's format: ``--mcap run.json`` would write MCAP under a JSON name)."""
     pairs = [(sink_for(out), out)] if out is not None else []
     for name, path in (("mcap", mcap), ("rrd", rrd), ("plot", plot)):
-        if path is not None:
-            pairs.append((sink_named(name), path))
+        if path is None:
+            continue
+        sink = sink_named(name)
+        if path.suffix.lower() not in sink.suffixes:
+            raise UnknownFormatError(
+                f"--{name} {path}: --{name} writes {sink.label}, whose files end in "
+                + " or ".join(sink.suffixes)
+                + f" (--out FILE picks the format by its suffix: {' '.join(known_suffixes())})"
+            )
+        pairs.append((sink, path))
     return pairs
 
 

@@ -9,7 +9,14 @@ from typing import Annotated, Any
 import typer
 
 from ._app import app
-from ._common import JsonOption, QuietOption, fail, parse_scene_or_exit, with_status
+from ._common import (
+    JsonOption,
+    QuietOption,
+    fail,
+    parse_scene_or_exit,
+    print_table,
+    with_status,
+)
 
 VaryOption = Annotated[
     list[str] | None,
@@ -111,7 +118,6 @@ def aim(
 
 
 def _print(result: Any, out: Path | None) -> None:
-    from rich.console import Console
     from rich.table import Table
 
     shot = result.shot
@@ -138,7 +144,7 @@ def _print(result: Any, out: Path | None) -> None:
     in_window = result.pocket.contains(shot.entry_board, shot.entry_angle_deg)
     table.add_row("pocket", f"{result.pocket.describe()}: {'in' if in_window else 'out of'} window")
     table.add_row("search", f"{result.evaluations} shots in {1000 * result.seconds:.0f} ms")
-    Console().print(table)
+    print_table(table)
     typer.echo(result.message)
     if out is not None:
         typer.echo(f"{out}: the aimed scene; simulate it with: bowlrec simulate {out}")

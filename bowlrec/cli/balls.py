@@ -13,7 +13,7 @@ from bowlrec.archive.balls import parse_ball
 from bowlrec.errors import SpecFileError
 
 from ._app import app
-from ._common import ArchiveOption, JsonOption, archive_errors, fail
+from ._common import ArchiveOption, JsonOption, archive_errors, fail, print_table
 from ._common import open_archive as _open
 
 balls_app = typer.Typer(help="The archive's versioned ball-spec library.", no_args_is_help=True)
@@ -66,7 +66,6 @@ def list_balls(
     if as_json:
         typer.echo(json.dumps([e.to_json_dict() for e in entries], indent=2))
         return
-    from rich.console import Console
     from rich.table import Table
 
     from bowlrec.bowling.ball import BowlerBall
@@ -83,7 +82,7 @@ def list_balls(
             kind, mass = "physical", f"{b.mass_kg:g} kg"
             rg = " ".join(f"{v:.4f}" for v in b.rg_m) + " m"
         table.add_row(e.ref, kind, mass, rg, e.added_at, e.note)
-    Console().print(table)
+    print_table(table)
 
 
 @balls_app.command("show")

@@ -14,25 +14,42 @@ from bowlrec.archive.location import config_value
 from bowlrec.errors import BowlrecError, JobError
 
 from ._app import app
-from ._common import ArchiveOption, QuietOption, fail, interactive, open_archive
+from ._common import EXIT_INTERRUPTED, ArchiveOption, QuietOption, fail, interactive, open_archive
 
 if TYPE_CHECKING:
     from bowlrec.batch import BatchProgress
 
-#: exit code after Ctrl-C (128 + SIGINT), as shells report it
-EXIT_INTERRUPTED = 130
-
 
 def _sigint_sets(cancel: threading.Event) -> Any:
-    """Install a SIGINT handler that sets ``cancel`` (a second Ctrl-C interrupts at once)."""
+    """Install a SIGINT handler that sets ``cancel``; a second Ctrl-C raises KeyboardInterrupt
+    to stop at once."""
 
     def handler(signum: int, frame: FrameType | None) -> None:
         if cancel.is_set():
             raise KeyboardInterrupt
         cancel.set()
-        typer.echo("\ninterrupted: stopping after the runs in flight ...", err=True)
+        typer.echo(
+            "\ninterrupted: stopping after the runs in flight (Ctrl-C again: stop now) ...",
+            err=True,
+        )
 
     return signal.signal(signal.SIGINT, handler)
+
+
+class _FirstFailure:
+    """Passes table chunks on to the table writer and keeps the first failed row's error."""
+
+    def __init__(self, write: Any) -> None:
+        self.write = write
+        self.error: str | None = None
+        self.params: dict[str, Any] = {}
+
+    def __call__(self, table: Any) -> None:
+        if self.error is None and "failed" in table.status:
+            i = table.status.index("failed")
+            self.error = table.error[i] or "(no message)"
+            self.params = {k: v[i] for k, v in table.params.items()}
+        self.write(table)
 
 
 @app.command()
@@ -87,14 +104,26 @@ def batch(
         ),
     ] = None,
     chunk_size: Annotated[
-        int | None, typer.Option("--chunk-size", min=1, help="Runs per worker task.")
+        int | None,
+        typer.Option(
+            "--chunk-size", min=1, help="Runs per worker task (default: sized by run time)."
+        ),
     ] = None,
+    allow_failures: Annotated[
+        bool,
+        typer.Option(
+            "--allow-failures",
+            help="Exit 0 when some runs failed (their rows say why); by default failed runs "
+            "make the exit status 1.",
+        ),
+    ] = False,
     quiet: QuietOption = False,
 ) -> None:
     """Run a batch job (sweeps of scenes) into the archive and write its summary table.
 
     Every run of the sweep not yet archived is simulated and added; one table row per run.
-    Resumable: rerunning skips archived runs.
+    Resumable: rerunning skips archived runs. Prints one summary line (also with --quiet);
+    exits 1 when runs failed (unless --allow-failures), 130 after Ctrl-C.
     """
     from bowlrec.batch import TableWriter, load_job, run_job, table_paths
     from bowlrec.batch.runner import param_columns
@@ -121,8 +150,10 @@ def batch(
     cancel = threading.Event()
     previous = _sigint_sets(cancel)
     show = interactive(quiet)
+    failures = _FirstFailure(writer.write)
+    last = _LastProgress()
     try:
-        with _progress(show, spec.count()) as update:
+        with _progress(show, spec.count(), last) as update:
             result = run_job(
                 spec,
                 store,
@@ -134,8 +165,23 @@ def batch(
                 cancel=cancel,
                 replay_dir=replay_dir if replay_dir is not None else _replay_default(prefix),
                 worker_writes=worker_writes,
-                sink=writer.write,
+                sink=failures,
             )
+    except KeyboardInterrupt:  # the second Ctrl-C (the handler above)
+        writer.abort()
+        signal.signal(signal.SIGINT, previous)
+        kept = (
+            "nothing is archived"
+            if store is None
+            else f"the runs sealed so far are kept in {store.root} (about {last.done} of "
+            f"{spec.count()} runs had finished)"
+        )
+        typer.echo(
+            f"interrupted again: stopped at once; {kept}; no summary table was written; rerun "
+            "the same command to do the rest",
+            err=True,
+        )
+        raise typer.Exit(EXIT_INTERRUPTED) from None
     except BaseException as err:
         writer.abort()
         if isinstance(err, JobError):
@@ -154,16 +200,25 @@ def batch(
             "the same command"
         )
     c = result.counts
-    if not quiet:
-        added = "simulated" if store is None else "new"
+    added = "simulated" if store is None else "new"
+    typer.echo(
+        f"{result.n_rows + result.not_reached} runs: {c['ok']} {added}, "
+        f"{c['archived']} already archived, {c['failed']} failed"
+        + (f", {c['cancelled']} not run" if c["cancelled"] else "")
+        + (f", {result.not_reached} not reached" if result.not_reached else "")
+        + f" ({result.simulated} simulated in {result.elapsed_s:.1f} s)",
+        err=True,
+    )
+    if failures.error is not None and result.error is None:  # else the error line says why
+        from bowlrec.spec.errors import printable
+
+        at = ", ".join(f"{k}={_value(v)}" for k, v in failures.params.items())
         typer.echo(
-            f"{result.n_rows + result.not_reached} runs: {c['ok']} {added}, "
-            f"{c['archived']} already archived, {c['failed']} failed"
-            + (f", {c['cancelled']} not run" if c["cancelled"] else "")
-            + (f", {result.not_reached} not reached" if result.not_reached else "")
-            + f" ({result.simulated} simulated in {result.elapsed_s:.1f} s)",
+            f"first failure{f' ({at})' if at else ''}: {printable(failures.error)}"
+            + (f"; every failed row's error is in {paths[0]}" if paths else ""),
             err=True,
         )
+    if not quiet:
         for p in paths:
             typer.echo(f"table: {p}", err=True)
         if out is None and not any(p.suffix == ".parquet" for p in paths):
@@ -190,6 +245,25 @@ def batch(
                 err=True,
             )
         raise typer.Exit(EXIT_INTERRUPTED)
+    if c["failed"] and not allow_failures:
+        raise typer.Exit(1)
+
+
+def _value(v: Any) -> str:
+    """A swept value as the failure line shows it: floats to 6 significant digits, anything
+    else on one line and cut to :data:`~bowlrec.spec.errors.MAX_ECHO` characters."""
+    from bowlrec.spec.errors import MAX_ECHO, printable
+
+    return f"{v:.6g}" if isinstance(v, float) else printable(str(v), MAX_ECHO)
+
+
+class _LastProgress:
+    """The last progress report (for the message after a second Ctrl-C)."""
+
+    done = 0
+
+    def __call__(self, p: BatchProgress) -> None:
+        self.done = p.done
 
 
 def _replay_default(prefix: Path) -> Path:
@@ -202,15 +276,16 @@ def _replay_default(prefix: Path) -> Path:
 class _progress:
     """A rich progress bar (runs, rate, ETA) on a terminal; a no-op callback otherwise."""
 
-    def __init__(self, show: bool, total: int) -> None:
+    def __init__(self, show: bool, total: int, last: _LastProgress) -> None:
         self.show = show
         self.total = total
+        self.last = last
         self.bar: Any = None
         self.task: Any = None
 
     def __enter__(self) -> Any:
         if not self.show:
-            return None
+            return self.last
         from rich.progress import (
             BarColumn,
             MofNCompleteColumn,
@@ -231,10 +306,15 @@ class _progress:
             transient=True,
         )
         self.bar.__enter__()
-        self.task = self.bar.add_task("batch", total=self.total, rate=0.0)
+        self.task = self.bar.add_task(
+            "batch: starting workers (loading the compiled kernels)", total=self.total, rate=0.0
+        )
         return self.update
 
     def update(self, p: BatchProgress) -> None:
+        self.last(p)
+        if p.done == 0:
+            return
         desc = f"batch ({p.failed} failed)" if p.failed else "batch"
         self.bar.update(self.task, completed=p.done, rate=p.rate_per_s, description=desc)
 

@@ -12,7 +12,7 @@ from typing import Annotated
 import typer
 
 from ._app import app
-from ._common import JsonOption, fail
+from ._common import JsonOption, fail, print_table
 
 
 @app.command()
@@ -37,7 +37,6 @@ def patterns(
     if as_json or name is not None:
         typer.echo(json.dumps(rows if name is None else rows[0], indent=2))
         return
-    from rich.console import Console
     from rich.table import Table
 
     table = Table(title="oil pattern presets (bowlrec patterns NAME: one, with its source)")
@@ -55,7 +54,7 @@ def patterns(
             crosses,
             r["kind"],
         )
-    Console().print(table)
+    print_table(table)
 
 
 @app.command()
@@ -107,10 +106,35 @@ def sheet(
 
 @app.command("bowler-scene")
 def bowler_scene(
-    out: Annotated[Path, typer.Argument(help="File to write (.json).")] = Path("bowler.json"),
+    out: Annotated[
+        Path, typer.Argument(help="File to write: .json, or .yaml/.yml for YAML.")
+    ] = Path("bowler.json"),
+    force: Annotated[
+        bool, typer.Option("--force", "-f", help="Replace the file if it exists.")
+    ] = False,
 ) -> None:
-    """Write a complete bowler-language scene with every field at its default, to edit."""
+    """Write a complete bowler-language scene with every field at its default, to edit.
+
+    An existing file is kept (an edited scene is not lost) unless --force is given.
+    """
+    from bowlrec.atomic_files import atomic_path
     from bowlrec.bowling.scene import BowlerScene
 
-    out.write_text(json.dumps(BowlerScene().model_dump(mode="json"), indent=2) + "\n")
+    suffix = out.suffix.lower()
+    if suffix not in (".json", ".yaml", ".yml"):
+        fail(f"{out}: a scene file's name ends in .json, .yaml or .yml")
+    if out.exists() and not force:
+        fail(f"{out} exists: keeping it (--force replaces it)")
+    doc = BowlerScene().model_dump(mode="json")
+    if suffix == ".json":
+        text = json.dumps(doc, indent=2) + "\n"
+    else:
+        import yaml
+
+        text = yaml.safe_dump(doc, sort_keys=False)
+    try:
+        with atomic_path(out, durable=False) as tmp:
+            tmp.write_text(text, encoding="utf-8")
+    except OSError as err:
+        fail(f"{out}: {err.strerror or err}", code=1)
     typer.echo(f"{out}: simulate it with: bowlrec simulate {out}")

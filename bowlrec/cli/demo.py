@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import sys
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -81,9 +83,30 @@ def demo(
     ]
     for name, runs, path in files:
         typer.echo(_written(name, runs, path))
-    typer.echo(
-        f"next: bowlrec runs list   |   bowlrec replay {replay.run_id[:10]} --rrd case16.rrd"
-    )
+    activate = activate_command()
+    if activate is not None:
+        typer.echo(f"next: {activate}   (once per shell: puts bowlrec and its Python on PATH)")
+    typer.echo(f"{'then' if activate else 'next'}: bowlrec runs list")
+    typer.echo(f"      bowlrec runs show {replay.run_id[:10]}")
+    typer.echo(f"      bowlrec replay {replay.run_id[:10]} --rrd case16.rrd")
+
+
+def activate_command() -> str | None:
+    """``source .venv/bin/activate`` (the path as short as it can be written from here) when
+    bowlrec runs from a virtual environment whose ``bin`` is not on PATH; None otherwise."""
+    if sys.prefix == sys.base_prefix:
+        return None
+    bindir = Path(sys.prefix) / "bin"
+    for entry in os.environ.get("PATH", "").split(os.pathsep):
+        if entry and Path(entry).resolve() == bindir.resolve():
+            return None
+    script = bindir / "activate"
+    try:
+        relative = os.path.relpath(script)
+    except ValueError:
+        relative = str(script)
+    shown = relative if len(relative) < len(str(script)) else str(script)
+    return f"source {shown}"
 
 
 def _written(name: str, runs: list[Any], path: Path) -> str:

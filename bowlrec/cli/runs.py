@@ -22,6 +22,7 @@ from ._common import (
     archive_errors,
     fail,
     load_scene_or_exit,
+    print_table,
 )
 from ._common import open_archive as _open
 from ._outputs import (
@@ -41,22 +42,35 @@ archive_app = typer.Typer(
 )
 app.add_typer(archive_app, name="archive")
 
-#: columns of the ``runs list`` table (the index has more; --json prints all of them)
-LIST_COLUMNS = ("run_id", "name", "ball", "pattern", "outcome", "slide_m", "hook_m", "pocket_deg")
+#: the ``runs list`` table: (header, index column, scale to the header's unit, format); the
+#: index has more columns, and --json prints all of them in SI units as stored
+LIST_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
+    ("run_id", "run_id", 1.0, ""),
+    ("created (UTC)", "created_at", 1.0, ""),
+    ("name", "name", 1.0, ""),
+    ("ball", "ball", 1.0, ""),
+    ("pattern", "pattern", 1.0, ""),
+    ("outcome", "outcome", 1.0, ""),
+    ("slide (m)", "slide_m", 1.0, ".3f"),
+    ("hook (cm)", "hook_m", 100.0, ".2f"),
+    ("pocket (deg)", "pocket_deg", 1.0, ".2f"),
+)
+#: how many runs ``runs list`` shows unless --limit says otherwise
+DEFAULT_LIST_LIMIT = 20
 
 
-def _cell(row: dict[str, Any], column: str) -> str:
+def _cell(row: dict[str, Any], column: str, scale: float, fmt: str) -> str:
     if column == "ball":
         return "" if row["ball_name"] is None else f"{row['ball_name']}@{row['ball_version']}"
     value = row[column]
     if column == "run_id":
         return str(value)[:10]  # a unique prefix is enough for every command
+    if column == "created_at":
+        return str(value)[:19].replace("T", " ")
     if value is None:
         return "-"
-    if column == "hook_m":
-        return f"{100 * value:.2f} cm"
     if isinstance(value, float):
-        return f"{value:.4g}"
+        return format(scale * value, fmt or ".4g")
     return str(value)
 
 
@@ -76,9 +90,20 @@ def list_runs(
         ),
     ] = None,
     order_by: Annotated[
-        str, typer.Option(help="Index column to sort by ('-' prefix: descending).")
-    ] = "created_at",
-    limit: Annotated[int | None, typer.Option(help="At most this many rows.")] = None,
+        str,
+        typer.Option(
+            help="Index column to sort by ('-' prefix: descending); newest first by default."
+        ),
+    ] = "-created_at",
+    limit: Annotated[
+        int, typer.Option("--limit", "-n", min=0, help="At most this many runs (0: all).")
+    ] = DEFAULT_LIST_LIMIT,
+    ids: Annotated[
+        bool,
+        typer.Option(
+            "--ids", help="Print only the full run IDs, one per line (for scripts: ID=$(...))."
+        ),
+    ] = False,
     damaged: Annotated[
         bool,
         typer.Option(
@@ -107,24 +132,29 @@ def list_runs(
             name=name,
             where=where or (),
             order_by=order_by,
-            limit=limit,
+            limit=None if limit == 0 else limit + 1,  # one more tells whether more match
         )
+    more = limit != 0 and len(rows) > limit
+    rows = rows[:limit] if more else rows
+    if ids:
+        for row in rows:
+            typer.echo(row["run_id"])
+        return
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
         return
-    from rich.console import Console
     from rich.table import Table
 
-    table = Table(title=f"{len(rows)} run(s) in {store.root}")
-    for column in LIST_COLUMNS:
-        if column == "run_id":
-            table.add_column(column, no_wrap=True, min_width=10)
-        else:
-            left = column in ("name", "ball", "pattern")
-            table.add_column(column, justify="left" if left else "right", overflow="fold")
+    title = f"{len(rows)} run(s) in {store.root}"
+    table = Table(
+        title=title, caption="more runs match: --limit N or --limit 0 for all" if more else None
+    )
+    for header, column, _scale, _fmt in LIST_COLUMNS:
+        left = column in ("name", "ball", "pattern", "outcome", "created_at", "run_id")
+        table.add_column(header, justify="left" if left else "right")
     for row in rows:
-        table.add_row(*(_cell(row, c) for c in LIST_COLUMNS))
-    Console().print(table)
+        table.add_row(*(_cell(row, c, scale, fmt) for _h, c, scale, fmt in LIST_COLUMNS))
+    print_table(table)
 
 
 @runs_app.command("show")
@@ -154,7 +184,6 @@ def show(
         }
         typer.echo(json.dumps(doc, indent=2))
         return
-    from rich.console import Console
     from rich.table import Table
 
     table = Table(title=f"run {stored.run_id} ({stored.scene.name})", show_header=False)
@@ -166,14 +195,19 @@ def show(
     table.add_row("samples", str(stored.trajectory.n_samples))
     if warning is not None:
         table.add_row("warning", warning)
-    Console().print(table)
+    print_table(table)
+    typer.echo("scene (as given):")
+    typer.echo(json.dumps(json.loads(stored.attrs["scene_json"]), indent=2))
 
 
 @runs_app.command("export")
 def export(
     runs: Annotated[
         list[str],
-        typer.Argument(help="Run ID(s) or unique prefixes; several only for a batch .mcap."),
+        typer.Argument(
+            help="Run ID(s) or unique prefixes; several go into one .mcap, .csv (a summary "
+            "row each) or figure."
+        ),
     ],
     out: Annotated[
         Path,
@@ -181,7 +215,8 @@ def export(
             "--out",
             "-o",
             help="Destination; its suffix picks the format: .h5/.hdf5 (the run file), .mcap, "
-            ".rrd, .npz (samples), .json (scene), .png/.svg (plot).",
+            ".rrd, .npz (samples), .csv (samples, or the summary row of a summary-only run), "
+            ".json (scene), .png/.svg (plot).",
         ),
     ],
     archive: ArchiveOption = None,
@@ -189,8 +224,8 @@ def export(
     """Export a run as its HDF5 file, MCAP, rerun recording, NumPy arrays, scene JSON or
     figure.
 
-    Several runs go into one .mcap (each under its own topic prefix, lanes side by side) or
-    one figure (overlaid).
+    Several runs go into one .mcap (each under its own topic prefix, lanes side by side), one
+    .csv (a summary row per run) or one figure (overlaid).
     """
 
     sink = sink_for(out)

@@ -19,9 +19,11 @@ from ._common import (
     JsonOption,
     QuietOption,
     archive_errors,
+    fail,
     load_scene_or_exit,
     open_archive,
     parse_scene_or_exit,
+    print_table,
     summary_json,
     with_progress,
     with_status,
@@ -97,7 +99,7 @@ def simulate(
                 quiet,
                 _solve_unarchived,
                 scene_obj,
-                needs_samples,
+                needs_samples or bool(files),  # a file gets the samples the scene records
             )
             run_id, added = None, False
         from bowlrec.sinks import RunData
@@ -151,14 +153,13 @@ def _bowler_report(parsed: Any, plan: Any) -> dict[str, Any] | None:
 
 
 def _print_bowler(report: dict[str, Any]) -> None:
-    from rich.console import Console
     from rich.table import Table
 
     table = Table(title="in bowlers' terms", show_header=False)
     for key, value in report.items():
         text = f"{value:.2f}" if isinstance(value, float) else str(value)
         table.add_row(key, text)
-    Console().print(table)
+    print_table(table)
 
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
@@ -172,7 +173,6 @@ def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
 
 
 def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:
-    from rich.console import Console
     from rich.table import Table
 
     s = traj.summary
@@ -191,7 +191,7 @@ def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store:
     if run_id is not None:
         state = "stored" if added else "already archived (reused)"
         table.add_row("run", f"{run_id} {state} in {store.root}")
-    Console().print(table)
+    print_table(table)
 
 
 @app.command()
@@ -199,9 +199,6 @@ def paper(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON rows.")] = False,
     markdown: Annotated[bool, typer.Option("--markdown", help="Print a Markdown table.")] = False,
     rtol: Annotated[float | None, typer.Option(help="Integrator tolerance override.")] = None,
-    update_readme: Annotated[
-        Path | None, typer.Option(help="Rewrite the Table III block of this README.")
-    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
@@ -213,12 +210,6 @@ def paper(
         18,
         lambda cb: run_paper_cases(rtol=rtol, progress=cb),
     )
-    if update_readme is not None:
-        from bowlrec.paper_table import update_readme as _update
-
-        changed = _update(update_readme, markdown_table(rows))
-        typer.echo(f"{update_readme}: {'updated' if changed else 'already up to date'}")
-        return
     if as_json:
         out = [
             {
@@ -239,7 +230,6 @@ def paper(
     if markdown:
         typer.echo(markdown_table(rows), nl=False)
         return
-    from rich.console import Console
     from rich.table import Table
 
     table = Table(title="Frohlich (2004) Table III: the paper vs bowlrec (as written, best fit)")
@@ -247,36 +237,63 @@ def paper(
         table.add_column(h.replace(" (", "\n("), justify="right")
     for cells in table_cells(rows):
         table.add_row(*cells)
-    console = Console()
-    console.print(table)
+    print_table(table)
     for key, text in NOTE_TEXT.items():
-        console.print(f"({key}) {text}")
+        typer.echo(f"({key}) {text}")
 
 
 @app.command()
 def schema(
-    out: Annotated[Path, typer.Option(help="Directory for the JSON Schema files.")] = Path(
-        "schemas"
-    ),
+    name: Annotated[
+        str | None,
+        typer.Argument(
+            help="scene (default), bowler-scene, job, or a part of the scene: ball, lane, "
+            "delivery, options.",
+            show_default=False,
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Write NAME.schema.json into this directory (every schema when no NAME is "
+            "given) instead of printing one.",
+        ),
+    ] = None,
 ) -> None:
-    """Export the JSON Schemas of the scene models."""
-    from bowlrec.spec.schema_export import export_schemas
+    """Print the JSON Schema of a scene, bowler scene or batch job (for editors and
+    validators), or write the schema files into a directory."""
+    from bowlrec.spec.schema_export import SCHEMAS, export_schemas
 
-    for p in export_schemas(out):
+    if name is not None and name not in SCHEMAS:
+        fail(f"schema {name!r}: there is no such schema; the schemas are {', '.join(SCHEMAS)}")
+    if out is None:
+        typer.echo(SCHEMAS[name or "scene"](), nl=False)
+        return
+    for p in export_schemas(out, None if name is None else [name]):
         typer.echo(str(p))
 
 
 @app.command()
 def examples(
-    out: Annotated[Path, typer.Option(help="Directory for the Table III scene files.")] = Path(
-        "examples/paper"
-    ),
+    out: Annotated[
+        Path,
+        typer.Argument(
+            help="Directory for the Table III scene files (the repository's: examples/paper)."
+        ),
+    ],
 ) -> None:
-    """Write the 18 Table III scenes as JSON scene files."""
+    """Write the 18 Table III scenes as JSON scene files (case01.json ... case18.json)."""
     from bowlrec.paper import write_paper_examples
 
     for p in write_paper_examples(out):
         typer.echo(str(p))
+
+
+def _floats(values: Any) -> str:
+    """``[a, b, c]`` with each value as Python prints a float (shortest round-trip form)."""
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
 @app.command()
@@ -287,9 +304,9 @@ def validate(
     scene_obj = load_scene_or_exit(scene)
     plan = scene_obj.resolve()
     typer.echo(f"{scene}: valid scene {scene_obj.name!r}")
-    typer.echo(f"  inertia per mass k^2 (m^2): {list(plan.inertia_per_mass_m2)}")
-    typer.echo(f"  r_Delta body (m): {list(plan.r_delta_body_m)}")
-    typer.echo(f"  q0 (w, x, y, z): {list(plan.q0)}")
+    typer.echo(f"  inertia per mass k^2 (m^2): {_floats(plan.inertia_per_mass_m2)}")
+    typer.echo(f"  r_Delta body (m): {_floats(plan.r_delta_body_m)}")
+    typer.echo(f"  q0 (w, x, y, z): {_floats(plan.q0)}")
     typer.echo(
         f"  scalar inertia: {plan.scalar_inertia}, offset: {plan.has_offset}, "
         f"constant friction: {plan.constant_friction}"

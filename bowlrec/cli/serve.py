@@ -1,9 +1,13 @@
 """``bowlrec serve``: the HTTP service (FastAPI + uvicorn, imported only when it runs).
 
 Before anything is served: a non-loopback host needs a token (or ``--insecure``), and that
-token must be at least 32 characters; the sockets are bound before "serving on" is printed
-(a port in use is one ``error:`` line, exit 2). The security model (token, cookie sessions,
-Host allow-list, Origin checks, body limit) is described in ``docs/service.md``.
+token must be at least 32 characters; the sockets are bound before the archive is opened and
+before "serving on" is printed (an address that cannot be listened on -- a port in use, an
+address not of this machine, a host name that does not resolve, a privileged port -- is one
+``error:`` line naming the address and the reason, exit 2). Ctrl-C stops the server
+gracefully and prints ``bowlrec: stopped`` (exit 130); a second Ctrl-C during the shutdown
+hurries it and never prints a traceback. The security model (token, cookie sessions, Host
+allow-list, Origin checks, body limit) is described in ``docs/service.md``.
 """
 
 from __future__ import annotations
@@ -11,8 +15,11 @@ from __future__ import annotations
 import errno
 import ipaddress
 import os
+import signal
 import socket
-from typing import Annotated
+import threading
+from types import FrameType
+from typing import Annotated, Any
 
 import typer
 
@@ -26,13 +33,15 @@ from bowlrec.service.names import (
 )
 
 from ._app import app
-from ._common import ArchiveOption, fail, open_archive
+from ._common import EXIT_INTERRUPTED, ArchiveOption, fail, open_archive
 
 #: the largest request-body limit serve accepts (MiB): 4 GiB
 MAX_BODY_MB = 4096.0
 DEFAULT_TOKEN_ENV = "BOWLREC_TOKEN"
 #: the default request body limit, MiB (``--max-body-mb``)
 DEFAULT_MAX_BODY_MB = DEFAULT_MAX_BODY_BYTES / 2**20
+#: ports below this one need root (or CAP_NET_BIND_SERVICE)
+PRIVILEGED_PORTS = 1024
 
 
 def is_loopback(host: str) -> bool:
@@ -128,30 +137,133 @@ def serve(
             fail(f"--allowed-host {name!r}: not a host name (give NAME or an IP, no scheme)")
     if bound_ip(host) is not None:
         allowed.append(host.strip("[]"))  # the literal address the server is reached at
-    store = open_archive(archive)
-    if scheduler is None:
-        scheduler = config_value("scheduler")
-    application = create_app(  # JobsLockedError when another server runs the archive's jobs
-        store.root,
-        token,
-        job_workers=job_workers,
-        scheduler=scheduler,
-        max_body_bytes=max_body_bytes,
-        allowed_hosts=allowed,
-    )
     try:
         sockets = bind_sockets(host, port)
     except OSError as err:
-        fail(f"cannot listen on {host}:{port}: {err.strerror or err}")
+        fail(f"cannot listen on {host_port(host, port)}: {listen_error(err, host, port)}")
+    try:
+        store = open_archive(archive)
+        if scheduler is None:
+            scheduler = config_value("scheduler")
+        application = create_app(  # JobsLockedError when another server runs its jobs
+            store.root,
+            token,
+            job_workers=job_workers,
+            scheduler=scheduler,
+            max_body_bytes=max_body_bytes,
+            allowed_hosts=allowed,
+        )
+    except BaseException:
+        for sock in sockets:
+            sock.close()
+        raise
     bound_port = sockets[0].getsockname()[1]
-    shown = f"[{host}]" if ":" in host and not host.startswith("[") else host
     auth = f"token from ${token_env}" if token else "no token"
     typer.echo(
-        f"bowlrec: serving {store.root} on http://{shown}:{bound_port} ({auth}); docs at /docs",
+        f"bowlrec: serving {store.root} on http://{host_port(host, bound_port)} ({auth}); "
+        "docs at /docs",
         err=True,
     )
     config = uvicorn.Config(application, host=host, port=bound_port, log_level=log_level)
-    uvicorn.Server(config).run(sockets=sockets)
+    interrupted, cut_off = run_server(config, sockets)
+    if interrupted:
+        lost = f" ({cut_off} request(s) in progress cut off)" if cut_off else ""
+        typer.echo(f"bowlrec: stopped{lost}", err=True)
+        raise typer.Exit(EXIT_INTERRUPTED)
+
+
+def run_server(config: Any, sockets: list[socket.socket]) -> tuple[bool, int]:
+    """Serve the ``uvicorn.Config`` on ``sockets`` until the server stops: whether Ctrl-C
+    (SIGINT) stopped it, and how many requests in progress a forced stop cut off.
+
+    The first SIGINT shuts the server down gracefully: it stops accepting, waits for the
+    requests in progress, then shuts the application down (the jobs stop after their runs in
+    flight). A second one during the shutdown stops the waiting for requests (those still in
+    progress are cut off and counted, not logged with a traceback); the application is still
+    shut down. uvicorn raises the signal again once it has restored the handler installed
+    here, which only notes it; from then on SIGINT is ignored, so no later Ctrl-C interrupts
+    the clean-up (or the interpreter's exit) with a traceback.
+    """
+    import asyncio
+    import logging
+
+    import uvicorn
+
+    class Server(uvicorn.Server):
+        async def shutdown(self, sockets: list[socket.socket] | None = None) -> None:
+            await super().shutdown(sockets=sockets)
+            done = getattr(self.lifespan, "shutdown_event", None)
+            if self.force_exit and not (done is not None and done.is_set()):
+                # a second Ctrl-C made uvicorn skip the application's shutdown: without it
+                # the jobs would not stop and the lifespan task would be cancelled (logged
+                # with a traceback)
+                await self.lifespan.shutdown()
+
+    server = Server(config)
+    cut_off = 0
+
+    def not_cut_off(record: logging.LogRecord) -> bool:
+        """False for uvicorn's report of a request cancelled as a forced stop ends the loop."""
+        nonlocal cut_off
+        error = record.exc_info[1] if record.exc_info else None
+        if server.force_exit and isinstance(error, asyncio.CancelledError):
+            cut_off += 1
+            return False
+        return True
+
+    interrupted = False
+
+    def on_sigint(signum: int, frame: FrameType | None) -> None:
+        nonlocal interrupted
+        interrupted = True
+        server.should_exit = True  # when it comes before uvicorn handles the signal itself
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, on_sigint) if main else None
+    uvicorn_log = logging.getLogger("uvicorn.error")
+    uvicorn_log.addFilter(not_cut_off)
+    try:
+        server.run(sockets=sockets)
+    finally:
+        uvicorn_log.removeFilter(not_cut_off)
+        if main and not interrupted and previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    return interrupted, cut_off
+
+
+def host_port(host: str, port: int) -> str:
+    """``HOST:PORT`` as a URL writes it (an IPv6 address in brackets)."""
+    from bowlrec.spec.errors import MAX_ECHO, printable
+
+    shown = f"[{host}]" if ":" in host and not host.startswith("[") else host
+    return f"{printable(shown, MAX_ECHO)}:{port}"
+
+
+def listen_error(err: OSError, host: str, port: int) -> str:
+    """Why ``host:port`` cannot be listened on, and what to do, for ``error: cannot listen on
+    HOST:PORT: ...``."""
+    from bowlrec.spec.errors import MAX_ECHO, printable
+
+    if isinstance(err, socket.gaierror):
+        return (
+            f"cannot resolve the host name ({err.strerror or err}); give an IP address or a "
+            "name of this machine, e.g. --host 127.0.0.1"
+        )
+    if err.errno == errno.EADDRINUSE:
+        return "address already in use (is another bowlrec serve running? use --port)"
+    if err.errno == errno.EADDRNOTAVAIL:
+        return (
+            f"{printable(host.strip('[]'), MAX_ECHO)} is not an address of this machine (use "
+            "127.0.0.1, 0.0.0.0 for every interface, or one of its own addresses)"
+        )
+    if err.errno in (errno.EACCES, errno.EPERM) and 0 < port < PRIVILEGED_PORTS:
+        return (
+            f"permission denied: ports below {PRIVILEGED_PORTS} need root (use --port "
+            f"{PRIVILEGED_PORTS} or higher, e.g. 8000)"
+        )
+    reason = err.strerror or str(err)
+    return reason[:1].lower() + reason[1:]
 
 
 def bound_ip(host: str) -> str | None:

@@ -3,8 +3,9 @@
 numba keys a cached function on its own source file only, so a kernel would keep a stale copy of
 a function it calls from another file (e.g. the integrator inlines ``dynamics.rhs``). To rule that
 out, the cached kernels are dropped whenever any source file of ``bowlrec/core`` differs from the
-one the cache was built from (about 1 ms). ``vec`` imports this module, and every kernel module
-imports ``vec``, so it runs once, before the first kernel loads.
+one the cache was built from (one hash over the sources, cheap beside loading a kernel). ``vec``
+imports this module, and every kernel module imports ``vec``, so it runs once, before the first
+kernel loads.
 """
 
 from __future__ import annotations

@@ -89,13 +89,12 @@ def orientation_weight(plan: Plan) -> float:
 
 
 #: An orientation error is never corrected: it acts on the forces for the rest of the run, while
-#: velocity errors are what the error control limits step by step. Weighting the quaternion by
-#: its bare influence (gain 1) left the hook of offset balls 10x less accurate than that of the
-#: rest (Table III case 15: 10 mm at rtol 1e-4). Measured over the 218 benchmark deliveries, a
-#: gain of 1000 (full weight for any real ball: influence >= 1e-3) against 10: worst hook error
-#: 0.42 instead of 2.8 mm at rtol 1e-4 and 0.95 mm at 2e-4, so a worst hook error <= 1 mm takes
-#: 101k right-hand sides (rtol 2e-4) instead of 122k (gain 10 at rtol 5e-5); at rtol 2e-6 it
-#: takes 12 % more for half the hook error (0.0036 instead of 0.0080 mm).
+#: velocity errors are what the error control limits step by step. Weighted by its bare
+#: influence (gain 1), the quaternion's error dominates the hook error of offset balls: over the
+#: 218 benchmark deliveries at rtol 1e-4, a worst hook error of 5.6 mm for the offset balls
+#: against 0.19 mm for the rest (Table III case 15: 4.3 mm). A gain of 1000 gives full weight to
+#: any real ball (influence >= 1e-3). Hook error and right-hand sides at each tolerance:
+#: benchmarks/results/work_precision.md.
 ORIENTATION_GAIN = 1000.0
 
 
@@ -103,11 +102,11 @@ def slip_layer(plan: Plan) -> float:
     """Slip speed (m/s) below which the slip direction is not integrated (not stiff): 1e4 rtol,
     within [1e-8, 3e-4] m/s.
 
-    The cap: above 3e-4 m/s the layer's own error shows at loose tolerances (1e-3 m/s gave
-    0.0012 deg of pocket at rtol 3e-6, against 0.0002 deg at 3e-4), while raising it from 1e-4
-    to 3e-4 m/s spares the stiff re-slip after each roll -> slide event: 4-6 % less time at
-    rtol 5e-5 and 2e-6 over the benchmark's 218 deliveries, errors unchanged to within the
-    tolerance."""
+    A wider layer spares more of the stiff re-slip after each roll -> slide event (fewer
+    right-hand sides), but above the cap its own error shows: over the 218 benchmark deliveries
+    at rtol 3e-6, a 1e-3 m/s layer gives worst errors of 0.00033 deg of pocket and 1.1 mm of
+    slide, against 0.00025 deg and 1.0 mm at 3e-4 m/s. Time and errors per tolerance:
+    benchmarks/results/work_precision.md."""
     if plan.slip_layer_mps is not None:
         return float(plan.slip_layer_mps)
     return min(3e-4, max(1e-8, 1e4 * plan.rtol))

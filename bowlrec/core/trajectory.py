@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from bowlrec.errors import MissingExtraError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: the Summary's float metrics, as columns of many runs (NaN: no value)
 FLOAT_METRICS = (
@@ -37,7 +43,7 @@ class Event:
     phase: str
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Summary:
     """Table III quantities and the run's bookkeeping.
 
@@ -67,6 +73,16 @@ class Summary:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    def __repr__(self) -> str:
+        """One line: the outcome, the Table III metrics, the time (s) and where the ball ended
+        (m); the message and the step counts are left out."""
+        return (
+            f"Summary(outcome={self.outcome!r}, slide_m={_short(self.slide_m)}, "
+            f"hook_m={_short(self.hook_m)}, pocket_deg={_short(self.pocket_deg)}, "
+            f"time_s={_short(self.time_s)}, end=({_short(self.x_end_m)}, "
+            f"{_short(self.y_end_m)}) m)"
+        )
+
 
 @dataclass(frozen=True)
 class Observation:
@@ -82,7 +98,7 @@ class Observation:
     omega_radps: tuple[float, float, float]
 
 
-@dataclass
+@dataclass(repr=False)
 class Trajectory:
     """Samples of one delivery (lane frame, SI units) plus its events and summary.
 
@@ -139,6 +155,90 @@ class Trajectory:
         for name, arr in self.torques_Nm.items():
             out[f"torque_{name}"] = arr
         return out
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """The samples as a pandas DataFrame, one row per sample, with the columns of
+        :func:`sample_columns` (named with their units: ``t_s``, ``x_m``, ``omega_x_radps``,
+        ``normal_force_N``, ...; values equal to the arrays). A trajectory without samples (a
+        summary-only run) gives one row of :meth:`Summary.to_dict` instead, a metric without a
+        value as NaN.
+
+        Needs pandas (``pip install 'bowlrec[pandas]'``); :class:`MissingExtraError` otherwise.
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise MissingExtraError(
+                "Trajectory.to_dataframe needs pandas, which is not installed; install it with: "
+                "pip install 'bowlrec[pandas]'",
+                name="pandas",
+            ) from None
+        if self.n_samples == 0:
+            row = {k: math.nan if v is None else v for k, v in self.summary.to_dict().items()}
+            return pd.DataFrame([row])
+        return pd.DataFrame(sample_columns(self))
+
+    def __repr__(self) -> str:
+        """One line: outcome, sample count and time span (s), Table III metrics, event count."""
+        s = self.summary
+        if self.n_samples:
+            span = f"t={_short(float(self.t_s[0]))}..{_short(float(self.t_s[-1]))} s"
+        else:
+            span = f"time_s={_short(s.time_s)}"
+        terms = f", terms={len(self.torques_Nm)}" if self.torques_Nm else ""
+        return (
+            f"Trajectory(outcome={s.outcome!r}, samples={self.n_samples}, {span}, "
+            f"slide_m={_short(s.slide_m)}, hook_m={_short(s.hook_m)}, "
+            f"pocket_deg={_short(s.pocket_deg)}, events={len(self.events)}{terms})"
+        )
+
+
+def _short(value: float | None) -> str:
+    """``value`` to 4 significant digits for a repr; ``None`` as is."""
+    return "None" if value is None else f"{value:.4g}"
+
+
+#: lane-frame axis of each vector component, in column order
+_XYZ = ("x", "y", "z")
+#: Trajectory array -> its sample columns, in order (each named with its unit)
+_COLUMN_NAMES: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("t_s", ("t_s",)),
+    ("position_m", ("x_m", "y_m", "z_m")),
+    ("velocity_mps", ("vx_mps", "vy_mps", "vz_mps")),
+    ("quaternion_wxyz", ("q_w", "q_x", "q_y", "q_z")),
+    ("omega_radps", tuple(f"omega_{a}_radps" for a in _XYZ)),
+    ("phase", ("phase",)),
+    ("mu", ("mu",)),
+    ("normal_force_N", ("normal_force_N",)),
+    ("friction_force_N", tuple(f"friction_{a}_N" for a in _XYZ)),
+    ("slip_mps", tuple(f"slip_{a}_mps" for a in _XYZ)),
+    ("energy_J", ("energy_J",)),
+    ("alpha_radps2", tuple(f"alpha_{a}_radps2" for a in _XYZ)),
+)
+
+
+def sample_columns(traj: Trajectory) -> dict[str, NDArray[Any]]:
+    """The samples of ``traj`` as scalar columns (n,), by name, in the order of
+    :meth:`Trajectory.arrays` with vectors split by component; the one column naming shared by
+    the CSV file (:mod:`bowlrec.sinks.csv_file`) and :meth:`Trajectory.to_dataframe`.
+
+    Each name ends in its unit (:func:`bowlrec.sinks.units.units_for`) or is dimensionless:
+    ``t_s``; ``x_m``, ``y_m``, ``z_m`` (center, lane frame); ``vx_mps`` ...; ``q_w``, ``q_x``,
+    ``q_y``, ``q_z`` (body -> lane quaternion); ``omega_x_radps`` ...; ``phase`` (0 sliding,
+    1 rolling); ``mu``; ``normal_force_N``; ``friction_x_N`` ...; ``slip_x_mps`` ...;
+    ``energy_J``; ``alpha_x_radps2`` ...; and when per-term torques were recorded
+    ``<term>_x_Nm`` ... for each term of :attr:`Trajectory.torques_Nm` (``tau_dev_x_Nm``,
+    ``I_o_x_Nm``, ...). Values are the arrays' own (views, same dtype: float64, phase int8).
+    """
+    n = traj.n_samples
+    named = [(getattr(traj, attr), names) for attr, names in _COLUMN_NAMES]
+    named += [(arr, tuple(f"{term}_{a}_Nm" for a in _XYZ)) for term, arr in traj.torques_Nm.items()]
+    out: dict[str, NDArray[Any]] = {}
+    for arr, names in named:
+        block = np.asarray(arr).reshape(n, len(names))
+        for i, name in enumerate(names):
+            out[name] = block[:, i]
+    return out
 
 
 def summary_trajectory(events: list[Event], summary: Summary) -> Trajectory:

@@ -13,9 +13,10 @@ from numba import njit
 from . import _kernel_cache  # noqa: F401  (drops stale kernel caches first)
 
 #: numba options of the kernels' helper functions, which allocate nothing: no reference counting
-#: (numba's atomic increments/decrements of their array arguments cost ~30% of the run time).
-#: ``_nrt`` is a numba-internal target option (used by numba itself, present since long before
-#: 0.60); a helper compiled with it must not create or return arrays.
+#: (numba's atomic increments/decrements of their array arguments cost a large share of the
+#: kernels' run time). ``_nrt`` is a numba-internal target option (used by numba itself, present
+#: in every numba version bowlrec supports); a helper compiled with it must not create or return
+#: arrays.
 NO_NRT: dict[str, Any] = {"_nrt": False}
 
 

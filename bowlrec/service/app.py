@@ -16,10 +16,15 @@ UnavailableError (an optional format library is not installed). The HTTP layer a
 from another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's) and 413 (the request
 body exceeds the limit, ``serve --max-body-mb``). Messages never name a server path (the
 archive's root reads ``ARCHIVE``, other paths ``<path>``), and control characters in them are
-escaped. Malformed requests (a body that is not a JSON object, a query parameter of the wrong
-type) are 422 with the same lines: ``request body: not valid JSON (...)``, ``query parameter
-limit: ...``; a body nested too deeply to parse is 400 (``There was an error parsing the
-body``). Bad input is never 5xx other than 503.
+escaped. Malformed requests are 422 with the same lines (never a list): the body as a whole
+is ``request body`` (``request body: not valid JSON at line 1 column 14: Expecting ','
+delimiter``, ``request body: must be a JSON object (got an array)``, an empty body, a
+``Content-Type`` that is not JSON), a field of the body is named by its path (``name: Field
+required``), a parameter as ``query parameter limit: ...`` or ``path parameter kind: ...``; a
+body that cannot be parsed at all (nested too deeply, an integer of more than 4300 digits,
+bytes that are not UTF-8) is 400 (``request body: cannot be parsed: nested too deeply``). An
+unknown path is 404 and a method a path does not take 405, each naming the path. Bad input is
+never 5xx other than 503.
 
 Requests carrying the bearer token skip the Host and Origin checks; a browser authenticates
 with a cookie session (``POST /session``). See :mod:`bowlrec.service.security` and
@@ -32,6 +37,7 @@ import contextlib
 import logging
 import math
 import os
+import sys
 import threading
 from collections.abc import AsyncIterator, Iterable
 from datetime import UTC, datetime
@@ -62,7 +68,7 @@ from bowlrec.errors import (
 )
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import Scene
-from bowlrec.spec.errors import format_errors
+from bowlrec.spec.errors import MAX_ECHO, format_errors, printable
 
 from .body_limit import DEFAULT_MAX_BODY_BYTES, BodyLimitMiddleware
 from .jobs import JobManager
@@ -107,6 +113,9 @@ FILE_KINDS: dict[str, str] = {
     "rrd": "application/octet-stream",
 }
 FileKind = Literal["hdf5", "mcap", "rrd"]
+
+#: the largest ``limit`` of ``GET /runs``: SQLite's largest integer
+MAX_LIST_LIMIT = 2**63 - 1
 
 #: the HTTP status of each category of :class:`~bowlrec.errors.BowlrecError` (the first
 #: category an error belongs to); a BowlrecError of none is 500
@@ -282,7 +291,9 @@ def list_runs(
     order_by: Annotated[
         str, Query(description="Index column to sort by ('-' prefix: descending).")
     ] = "created_at",
-    limit: Annotated[int | None, Query(ge=0, description="At most this many rows.")] = None,
+    limit: Annotated[
+        int | None, Query(ge=0, le=MAX_LIST_LIMIT, description="At most this many rows.")
+    ] = None,
 ) -> RunList:
     """Index rows of the matching runs (reads only the index)."""
     rows = state.archive.list_runs(
@@ -502,23 +513,118 @@ def close_session(state: StateDep, request: Request, response: Response) -> Sess
     return SessionClosed(closed=closed)
 
 
-def request_error_text(err: RequestValidationError) -> str:
-    """One ``where: message`` line per error of a request FastAPI could not parse: ``request
-    body`` (not JSON, or not an object), ``query parameter limit``, ``path parameter ...``."""
+#: Pydantic's error types for a value that is not a mapping (the body as a whole)
+_NOT_AN_OBJECT = {"dict_type", "model_type", "model_attributes_type"}
+#: what a request part is called in an error line
+_PLACES = {"query": "query parameter", "path": "path parameter", "header": "header"}
 
-    places = {"body": "request body", "query": "query parameter", "path": "path parameter"}
+
+def _json_kind(value: Any) -> str:
+    """What a parsed JSON value is, for ``must be a JSON object (got ...)``."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list):
+        return "an array"
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+    if isinstance(value, int | float):
+        try:
+            text = repr(value)
+        except ValueError:  # an integer too long to convert
+            return "a number too long to show"
+        return f"the number {text}" if len(text) <= MAX_ECHO else f"a number of {len(text)} digits"
+    if isinstance(value, str):
+        return "a string"
+    return type(value).__name__
+
+
+def _json_position(doc: Any, pos: Any) -> str:
+    """`` at line L column C`` of character ``pos`` in the text ``doc`` (as
+    :class:`json.JSONDecodeError` counts them), or nothing when either is unknown."""
+    if isinstance(doc, bytes):
+        doc = doc.decode("utf-8", "replace")
+    if not isinstance(doc, str) or not isinstance(pos, int) or not 0 <= pos <= len(doc):
+        return ""
+    line = doc.count("\n", 0, pos) + 1
+    column = pos - doc.rfind("\n", 0, pos)
+    return f" at line {line} column {column}"
+
+
+def _body_error(e: dict[str, Any], doc: Any, content_type: str | None) -> str | None:
+    """The message for an error about the body as a whole, or None for a field's error."""
+    kind, rest = e["type"], tuple(e.get("loc") or ())[1:]
+    if kind == "json_invalid":  # the location is a character position, not a field
+        reason = str((e.get("ctx") or {}).get("error") or "cannot be parsed")
+        where = _json_position(doc, rest[0] if rest else None)
+        return f"not valid JSON{where}: {reason}"
+    if rest:
+        return None
+    if kind == "missing":
+        return "empty (send a JSON object with the header Content-Type: application/json)"
+    value = e.get("input")
+    if isinstance(value, bytes):  # the body was not read as JSON: its Content-Type says so
+        if not content_type:
+            return "sent without a Content-Type header (send Content-Type: application/json)"
+        shown = printable(content_type, MAX_ECHO)
+        return f"Content-Type '{shown}' is not JSON (send Content-Type: application/json)"
+    if kind in _NOT_AN_OBJECT:
+        return f"must be a JSON object (got {_json_kind(value)})"
+    return None
+
+
+def request_error_text(err: RequestValidationError, content_type: str | None = None) -> str:
+    """One ``where: message`` line per error of a request FastAPI could not parse: ``request
+    body`` for the body as a whole (not JSON -- with the line and column --, not an object,
+    missing, or sent without a JSON ``Content-Type``), the field's path for a field of the
+    body (``name``, ``spec.mass_kg``), ``query parameter limit``, ``path parameter kind``.
+    ``content_type``: the request's ``Content-Type`` header."""
+
     details = []
     for e in err.errors():
-        where, *rest = e.get("loc") or ("request",)
-        where = places.get(str(where), str(where))
-        msg = str(e.get("msg", "invalid"))
-        if e["type"] == "json_invalid":  # its location is a character position: left out
-            reason = (e.get("ctx") or {}).get("error")
-            msg, rest = (f"not valid JSON ({reason})" if reason else "not valid JSON"), []
-        if where == "query parameter" and rest:
-            where, rest = f"{where} {rest[0]}", rest[1:]
-        details.append({**e, "loc": (where, *rest), "msg": msg})
+        part, *rest = tuple(e.get("loc") or ("request",))
+        if part == "body":
+            message = _body_error(dict(e), getattr(err, "body", None), content_type)
+            if message is not None:
+                details.append(
+                    {**e, "loc": ("request body",), "msg": message, "type": "invalid_spec"}
+                )
+                continue
+            loc: tuple[Any, ...] = tuple(rest)
+        elif part in _PLACES and rest:
+            loc = (f"{_PLACES[part]} {rest[0]}", *rest[1:])
+        else:
+            loc = (str(part), *rest)
+        details.append({**e, "loc": loc or ("request body",)})
     return format_errors(details)
+
+
+#: the detail FastAPI gives a body it could not read (other than invalid JSON)
+_UNPARSED_BODY = "There was an error parsing the body"
+
+
+def http_error_text(request: Request, err: StarletteHTTPException) -> str:
+    """The one-line detail of an HTTP error: the service's own message, or for what the
+    framework raises (an unknown path, a method the path does not take, a body that could
+    not be read) a line that names the path or the body and says what to do."""
+    detail = err.detail if isinstance(err.detail, str) else str(err.detail)
+    path = printable(request.url.path, MAX_ECHO)
+    if err.status_code == 404 and detail == "Not Found":
+        return f"no such path: {path} (the API is described at /docs)"
+    if err.status_code == 405 and detail == "Method Not Allowed":
+        return f"method {request.method} is not allowed on {path} (see /docs)"
+    if err.status_code == 400 and detail == _UNPARSED_BODY:
+        cause = err.__cause__
+        if isinstance(cause, RecursionError):
+            return "request body: cannot be parsed: nested too deeply"
+        if isinstance(cause, UnicodeDecodeError):
+            return f"request body: cannot be parsed: not UTF-8 (byte {cause.start})"
+        if isinstance(cause, ValueError) and "integer string conversion" in str(cause):
+            digits = sys.get_int_max_str_digits()
+            return f"request body: cannot be parsed: an integer has more than {digits} digits"
+        return "request body: cannot be parsed"
+    return detail
 
 
 # -- the app -------------------------------------------------------------------------------------
@@ -611,17 +717,19 @@ def create_app(
 
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, err: StarletteHTTPException) -> Response:
-        detail = state.redact(err.detail) if isinstance(err.detail, str) else err.detail
         if err.status_code in (204, 304):  # pragma: no cover - the service raises none
             return Response(status_code=err.status_code, headers=err.headers)
-        return JSONResponse({"detail": detail}, status_code=err.status_code, headers=err.headers)
+        detail = http_error_text(request, err)
+        return JSONResponse(
+            {"detail": state.redact(detail)}, status_code=err.status_code, headers=err.headers
+        )
 
     @app.exception_handler(RequestValidationError)
     async def _malformed(request: Request, err: RequestValidationError) -> JSONResponse:
-        # a body that is not a JSON object, or a query parameter of the wrong type: the same
-        # "field: message" lines as an invalid spec (FastAPI's list would echo a NaN input,
-        # which JSON cannot carry)
-        return JSONResponse({"detail": state.redact(request_error_text(err))}, status_code=422)
+        # a body that is not a JSON object, or a parameter of the wrong type: the same
+        # "field: message" lines as an invalid spec, never FastAPI's list
+        text = request_error_text(err, request.headers.get("content-type"))
+        return JSONResponse({"detail": state.redact(text)}, status_code=422)
 
     @app.exception_handler(BowlrecError)
     async def _bowlrec_error(request: Request, err: BowlrecError) -> JSONResponse:

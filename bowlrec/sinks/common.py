@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class RunData:
     """One finished run as the sinks see it.
 
@@ -57,6 +57,12 @@ class RunData:
     @property
     def name(self) -> str:
         return self.scene.name
+
+    def __repr__(self) -> str:
+        """One line: the scene's name, the run ID and the trajectory's short repr."""
+        return (
+            f"RunData(name={self.name!r}, run_id={self.run_id!r}, trajectory={self.trajectory!r})"
+        )
 
     def scene_json(self) -> str:
         """The scene as given, as compact JSON (loads back into an equal Scene)."""
@@ -170,15 +176,16 @@ def rev_rate_rpm(omega_radps: Array) -> Array:
 
 
 def summary_text(traj: Trajectory) -> str:
-    """One line for captions and titles: outcome, slide, hook (mm) and pocket angle (deg)."""
+    """One line for captions and titles in the command line's units: outcome, slide (m), hook
+    (cm) and pocket angle (deg)."""
     s = traj.summary
     parts = [s.outcome]
     if s.slide_m is not None:
         parts.append(f"slide {s.slide_m:.2f} m")
     if s.hook_m is not None:
-        parts.append(f"hook {s.hook_m * 1000:.1f} mm")
+        parts.append(f"hook {100 * s.hook_m:.2f} cm")
     if s.pocket_deg is not None:
-        parts.append(f"pocket {s.pocket_deg:.2f}°")
+        parts.append(f"pocket angle {s.pocket_deg:.2f} deg")
     return ", ".join(parts)
 
 

@@ -2,7 +2,8 @@
 
 :func:`plot_runs` draws one or more ball paths over the lane and its oil pattern in the style of
 Frohlich (2004), Figs. 1 and 4-6: the lane length runs along the horizontal axis and its width is
-exaggerated (4.5 times by default, as in the paper) so that the hook is visible. :func:`plot_series`
+exaggerated (4.5 times by default, as in the paper) so that the hook is visible; more than eight
+runs are numbered on the lane and in a legend of several columns. :func:`plot_series`
 draws speed, rev rate, slip speed and friction against time with the run's events.
 
 :func:`runs_figure` and :func:`series_figure` build the :class:`~matplotlib.figure.Figure`
@@ -33,6 +34,8 @@ from matplotlib.figure import Figure
 from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
+from matplotlib.patheffects import withStroke
+from matplotlib.text import Annotation
 from matplotlib.transforms import offset_copy
 from numpy.typing import ArrayLike, NDArray
 
@@ -60,6 +63,8 @@ ARROWS_X_M = 15 * 0.3048
 BOARDS_PER_LANE = 39
 #: number of rotation-axis arrows drawn along each path
 N_AXIS_ARROWS = 10
+#: rotation-axis arrows drawn in all in a numbered figure (at least one per run)
+NUMBERED_AXIS_ARROWS = 40
 #: length on the page (inches) of a rotation-axis arrow whose omega is horizontal
 AXIS_ARROW_IN = 0.25
 #: page height (inches) of each drawn gutter strip, whatever the exaggeration
@@ -68,12 +73,37 @@ GUTTER_PAGE_IN = 0.15
 AXES_WIDTH_IN = 9.4
 #: distance (inches) from the lane's lower edge down to the legend (room for the x label)
 LEGEND_DROP_IN = 0.55
+#: widest page width (inches) of the legend of a numbered figure (under the lane and colorbar)
+NUMBERED_LEGEND_WIDTH_IN = 10.5
 #: up to this many distinct mu values get a discrete colorbar
 MAX_DISTINCT_MU = 6
 #: total figure width (inches)
 FIGURE_WIDTH_IN = 12.0
 #: resolution of PNG output (dots per inch)
 PNG_DPI = 150
+#: up to this many runs get the plain figure (one color each, legend of full-width entries);
+#: more runs are numbered (see runs_figure)
+MAX_PLAIN_RUNS = 8
+#: line styles cycled, with the colors, over the paths of a numbered figure
+NUMBERED_LINE_STYLES = ("-", "--", ":", "-.")
+#: a numbered figure uses a new line style after this many colors
+MAX_NUMBERED_COLORS = 10
+#: font size (points) of the run numbers on the lane
+NUMBER_FONTSIZE = 6.5
+#: page distance (inches) between neighbouring run numbers in a column beyond the lane end
+NUMBER_STEP_IN = 0.12
+#: page distance (inches) from the lane end to the first column of run numbers
+NUMBER_X0_IN = 0.1
+#: page width (inches) of one column of run numbers
+NUMBER_COL_IN = 0.15
+#: page distance (inches) between neighbouring run numbers in a gutter strip
+NUMBER_GUTTER_STEP_IN = 0.18
+#: CIELAB lightness of the colors of a numbered figure (dark against the tan lane)
+NUMBERED_LIGHTNESS = 42.0
+#: largest CIELAB chroma of the colors of a numbered figure
+NUMBERED_MAX_CHROMA = 55.0
+#: CIELAB hue range (deg) of the colors of a numbered figure, skipping the lane's tans
+NUMBERED_HUES_DEG = (105.0, 410.0)
 
 #: matplotlib format of each suffix the registry gives plots
 _FORMATS = {suffix: suffix[1:] for suffix in sink_named("plot").suffixes}
@@ -201,6 +231,11 @@ class _LaneBox:
         """Page height (inches) of ``dy_m`` meters across the lane."""
         return dy_m * self.ex * self.in_per_m
 
+    def number_columns(self, n_numbers: int) -> int:
+        """Columns of run numbers (NUMBER_STEP_IN apart) that the lane's page height holds."""
+        per_column = max(1, int(self.y_page_in(self.y_lim[1] - self.y_lim[0]) // NUMBER_STEP_IN))
+        return max(1, math.ceil(n_numbers / per_column))
+
 
 def runs_figure(
     runs: Sequence[RunData],
@@ -220,9 +255,10 @@ def runs_figure(
     (4.572 m) on boards 5, 10, ..., 35 and the head pin at the end of the lane on the center
     line. For each run, in its own color: the path of the ball's center, a dashed straight line
     along the release velocity (the hook is measured from it), a tick mark where the ball first
-    starts rolling (``summary.slide_m``), and rotation-axis arrows at about 10 evenly spaced
-    points along the path. Several runs are staggered along the path so their arrows do not
-    sit on top of each other.
+    starts rolling (``summary.slide_m``), and rotation-axis arrows at N_AXIS_ARROWS (10) evenly
+    spaced points along the path (with more than MAX_PLAIN_RUNS runs, fewer: about
+    NUMBERED_AXIS_ARROWS in all, at least one per run). Several runs are staggered along the
+    path so their arrows do not sit on top of each other.
 
     Rotation-axis arrows show the horizontal part of the unit vector omega/|omega|. They are
     drawn in page (display) coordinates, not data coordinates: the angle of an arrow on the
@@ -233,6 +269,19 @@ def runs_figure(
 
     The legend has one entry per run: its name, slide (m; "no roll" if it never rolls), hook
     (cm) and pocket angle (deg), or the outcome when the ball does not reach the pins.
+
+    Up to MAX_PLAIN_RUNS runs, each has its own color from a fixed palette and the legend sits
+    below the lane. More runs are numbered 1, 2, ... in order: the paths cycle through
+    evenly spaced hues of one CIELAB lightness (dark against the lane, skipping its tans) and,
+    past MAX_NUMBERED_COLORS colors, through the line styles NUMBERED_LINE_STYLES, so no two
+    runs share both color and style. Each path carries its number (gid ``run_number:k``,
+    joined to the path's end by a thin line): paths that reach the end of the lane are numbered
+    in columns beyond it, the others in the gutter strip on the side where they end. The
+    legend entries start with the numbers and fill as many columns as fit under the lane; the
+    figure grows in height with the legend, so the lane keeps the size it has for a few runs
+    (it is drawn a little shorter only when the numbers need more than the two columns that
+    fit beyond the lane end, about 40 runs that reach the pins). The head pin's label moves to
+    the symbol key.
 
     Raises ValueError if ``runs`` is empty or ``exaggerate`` is not positive and finite, and
     :class:`~bowlrec.sinks.SamplesRequiredError` for a summary-only run.
@@ -245,36 +294,62 @@ def runs_figure(
     if not (math.isfinite(ex) and ex > 0.0):
         raise ValueError(f"exaggerate = {exaggerate!r} must be a positive finite number")
 
-    box = _lane_box(runs, ex)
+    numbered = len(runs) > MAX_PLAIN_RUNS
+    box = _lane_box(runs, ex, numbered=numbered)
     fig, ax = _lane_axes(box)
     _draw_friction(fig, ax, friction_cells(runs[0].plan))
-    _draw_lane_marks(ax, box)
+    _draw_lane_marks(ax, box, pin_label=not numbered)
+    if numbered:
+        styles = _numbered_styles(len(runs))
+    else:
+        styles = [(_RUN_COLORS[k % len(_RUN_COLORS)], "-") for k in range(len(runs))]
     handles: list[Line2D] = []
-    for k, run in enumerate(runs):
-        color = _RUN_COLORS[k % len(_RUN_COLORS)]
-        handles.append(_draw_run(ax, run, k, len(runs), color))
-    legend = _run_legend(fig, ax, handles)
+    for k, (run, (color, style)) in enumerate(zip(runs, styles, strict=True)):
+        handles.append(_draw_run(ax, run, k, len(runs), color, style))
+    if numbered:
+        _number_runs(ax, runs, box, [color for color, _ in styles])
+        legend = _numbered_legend(fig, ax, runs, handles)
+    else:
+        legend = _run_legend(fig, ax, handles)
     if _lanes_differ(runs):
         legend.set_title(f"lane and oil pattern drawn: those of {runs[0].name} (the lanes differ)")
-    _symbol_key(ax)
+    _symbol_key(ax, numbered=numbered)
     _lane_title(ax, runs, title)
     return fig
 
 
-def _lane_box(runs: Sequence[RunData], ex: float) -> _LaneBox:
+def _lane_box(runs: Sequence[RunData], ex: float, *, numbered: bool = False) -> _LaneBox:
     """The first run's lane, with axes limits that hold every path, the head pin and gutters.
 
-    Gutters are drawn GUTTER_PAGE_IN high on the page whatever the exaggeration.
+    Gutters are drawn GUTTER_PAGE_IN high on the page whatever the exaggeration. With
+    ``numbered``, the space beyond the lane end is widened when the run numbers placed there
+    (see :func:`_number_runs`) need more columns than it holds.
     """
     length = float(runs[0].plan.lane_length_m)
     width = float(runs[0].plan.lane_width_m)
     ys = np.concatenate([r.trajectory.position_m[:, 1] for r in runs])
     xs = np.concatenate([r.trajectory.position_m[:, 0] for r in runs])
-    x_lim = (min(-0.5, float(xs.min()) - 0.2), max(length + 0.9, float(xs.max()) + 0.3))
-    in_per_m = AXES_WIDTH_IN / (x_lim[1] - x_lim[0])
-    gutter_m = GUTTER_PAGE_IN / (ex * in_per_m)
-    y_lim = (min(-gutter_m, float(ys.min())), max(width + gutter_m, float(ys.max())))
-    return _LaneBox(length, width, ex, x_lim, y_lim, in_per_m)
+    x0 = min(-0.5, float(xs.min()) - 0.2)
+    x1 = max(length + 0.9, float(xs.max()) + 0.3)
+
+    def box_to(x1: float) -> _LaneBox:
+        in_per_m = AXES_WIDTH_IN / (x1 - x0)
+        gutter_m = GUTTER_PAGE_IN / (ex * in_per_m)
+        y_lim = (min(-gutter_m, float(ys.min())), max(width + gutter_m, float(ys.max())))
+        return _LaneBox(length, width, ex, (x0, x1), y_lim, in_per_m)
+
+    box = box_to(x1)
+    if not numbered:
+        return box
+    n_end = sum(_reaches_end(r, length) for r in runs)
+    for _ in range(8):  # a wider strip shrinks the scale, so a column holds fewer numbers
+        strip_in = NUMBER_X0_IN + box.number_columns(n_end) * NUMBER_COL_IN
+        share = strip_in / AXES_WIDTH_IN  # solves x1 - length = share * (x1 - x0) for x1
+        needed = (length - share * x0) / (1.0 - share)
+        if needed <= box.x_lim[1] + 1e-9:
+            break
+        box = box_to(needed)
+    return box
 
 
 def _lane_axes(box: _LaneBox) -> tuple[Figure, Axes]:
@@ -345,8 +420,8 @@ def _draw_friction(fig: Figure, ax: Axes, cells: Sequence[FrictionCell]) -> None
         bar.minorticks_off()
 
 
-def _draw_lane_marks(ax: Axes, box: _LaneBox) -> None:
-    """Gutters, lane edges, foul line, 15 ft arrows and the head pin."""
+def _draw_lane_marks(ax: Axes, box: _LaneBox, *, pin_label: bool = True) -> None:
+    """Gutters, lane edges, foul line, 15 ft arrows and the head pin (labeled if ``pin_label``)."""
     _draw_gutters(ax, box)
     length, width = box.length_m, box.width_m
     for y in (0.0, width):
@@ -366,7 +441,8 @@ def _draw_lane_marks(ax: Axes, box: _LaneBox) -> None:
         linestyle="none",
         zorder=4,
     )
-    ax.text(length + 0.15, width / 2, "head\npin", fontsize=8, va="center", ha="left")
+    if pin_label:
+        ax.text(length + 0.15, width / 2, "head\npin", fontsize=8, va="center", ha="left")
 
 
 def _draw_gutters(ax: Axes, box: _LaneBox) -> None:
@@ -406,15 +482,19 @@ def _draw_target_arrows(ax: Axes, box: _LaneBox) -> None:
     )
 
 
-def _draw_run(ax: Axes, run: RunData, k: int, n_runs: int, color: str) -> Line2D:
-    """Path, straight reference, slide-to-roll tick and omega arrows of run ``k``; the path."""
+def _draw_run(ax: Axes, run: RunData, k: int, n_runs: int, color: str, style: str = "-") -> Line2D:
+    """Path (in line style ``style``), straight reference, slide-to-roll tick and omega arrows
+    of run ``k``; the path."""
     traj = run.trajectory
     x, y = traj.position_m[:, 0], traj.position_m[:, 1]
-    (line,) = ax.plot(x, y, color=color, lw=1.8, zorder=5, label=_run_label(run))
+    (line,) = ax.plot(x, y, color=color, ls=style, lw=1.8, zorder=5, label=_run_label(run))
     line.set_gid(f"path:{k}")
     _draw_straight(ax, run, color)
     _draw_slide_tick(ax, run, k, color)
-    _draw_axis_arrows(ax, run, (k + 0.5) / n_runs, color)
+    count = N_AXIS_ARROWS
+    if n_runs > MAX_PLAIN_RUNS:
+        count = max(1, round(NUMBERED_AXIS_ARROWS / n_runs))
+    _draw_axis_arrows(ax, run, (k + 0.5) / n_runs, color, count)
     ax.plot([x[0]], [y[0]], marker="o", markersize=4, color=color, zorder=6)
     return line
 
@@ -475,19 +555,21 @@ def _arc_length(pos: Array) -> Array:
     return np.concatenate([[0.0], np.cumsum(steps)])
 
 
-def axis_arrow_samples(run: RunData, phase: float = 0.5) -> tuple[Array, Array]:
+def axis_arrow_samples(
+    run: RunData, phase: float = 0.5, count: int = N_AXIS_ARROWS
+) -> tuple[Array, Array]:
     """Points and horizontal rotation-axis components for the arrows along ``run``'s path.
 
     Returns ``(points, uv)``: points, shape (k, 2) in m, on the path at arc lengths
-    (i + phase) / N_AXIS_ARROWS of its total length for i = 0 .. N_AXIS_ARROWS - 1 (``phase``
-    in [0, 1) staggers several runs); uv, shape (k, 2), the x and y components of
-    omega/|omega| there (dimensionless, length <= 1). Points where |omega| is zero are dropped.
+    (i + phase) / count of its total length for i = 0 .. count - 1 (``phase`` in [0, 1)
+    staggers several runs); uv, shape (k, 2), the x and y components of omega/|omega| there
+    (dimensionless, length <= 1). Points where |omega| is zero are dropped.
     """
     traj = run.trajectory
     s = _arc_length(traj.position_m)
     if s[-1] <= 0.0:
         return np.zeros((0, 2)), np.zeros((0, 2))
-    targets = (np.arange(N_AXIS_ARROWS) + phase) / N_AXIS_ARROWS * s[-1]
+    targets = (np.arange(count) + phase) / count * s[-1]
     pts = np.column_stack([np.interp(targets, s, traj.position_m[:, i]) for i in range(2)])
     w = np.column_stack([np.interp(targets, s, traj.omega_radps[:, i]) for i in range(3)])
     norm = np.linalg.norm(w, axis=1)
@@ -496,9 +578,12 @@ def axis_arrow_samples(run: RunData, phase: float = 0.5) -> tuple[Array, Array]:
     return pts[keep], uv
 
 
-def _draw_axis_arrows(ax: Axes, run: RunData, phase: float, color: str) -> None:
-    """Quiver of the rotation axis in page coordinates (true angles; see runs_figure)."""
-    pts, uv = axis_arrow_samples(run, phase)
+def _draw_axis_arrows(
+    ax: Axes, run: RunData, phase: float, color: str, count: int = N_AXIS_ARROWS
+) -> None:
+    """Quiver of ``count`` rotation-axis arrows in page coordinates (true angles; see
+    runs_figure)."""
+    pts, uv = axis_arrow_samples(run, phase, count)
     if pts.shape[0] == 0:
         return
     q = ax.quiver(
@@ -521,10 +606,12 @@ def _draw_axis_arrows(ax: Axes, run: RunData, phase: float, color: str) -> None:
     q.set_gid("omega_arrows")
 
 
-def _run_label(run: RunData) -> str:
-    """Legend text: name, then slide, hook and pocket angle (or the outcome)."""
+def _run_label(run: RunData, *, short: bool = False) -> str:
+    """Legend text: name, then slide, hook and pocket angle (or the outcome); ``short`` says
+    "no roll" without "(slides to the end)"."""
     s = run.trajectory.summary
-    slide = "no roll (slides to the end)" if s.slide_m is None else f"slide {s.slide_m:.2f} m"
+    no_roll = "no roll" if short else "no roll (slides to the end)"
+    slide = no_roll if s.slide_m is None else f"slide {s.slide_m:.2f} m"
     if s.outcome == "pins" and s.hook_m is not None and s.pocket_deg is not None:
         result = f"hook {s.hook_m * 100:.0f} cm, pocket {s.pocket_deg:.1f}°"
     else:
@@ -549,13 +636,222 @@ def _run_legend(fig: Figure, ax: Axes, handles: Sequence[Line2D]) -> Legend:
     )
 
 
-def _symbol_key(ax: Axes) -> None:
-    """A key of the symbols, above the lane's upper right corner."""
+# --------------------------------------------------------------------------------------------
+# many runs: colors and styles, numbers on the lane, the numbered legend
+
+#: a path ending this close (m) to the lane end, or beyond it, is numbered beyond the lane end
+_END_TOLERANCE_M = 0.01
+#: CIELAB white point (D65) and the XYZ -> linear sRGB matrix
+_D65 = np.array([0.95047, 1.0, 1.08883])
+_XYZ_TO_SRGB = np.array(
+    [[3.2406, -1.5372, -0.4986], [-0.9689, 1.8758, 0.0415], [0.0557, -0.2040, 1.0570]]
+)
+
+
+def _lab_to_linear_srgb(lightness: float, a: float, b: float) -> Array:
+    """Linear sRGB (each in [0, 1] when in gamut) of the CIELAB color (L, a, b), D65 white."""
+    fy = (lightness + 16.0) / 116.0
+    f = np.array([fy + a / 500.0, fy, fy - b / 200.0])
+    delta = 6.0 / 29.0
+    xyz = _D65 * np.where(f > delta, f**3, 3.0 * delta**2 * (f - 4.0 / 29.0))
+    return np.asarray(_XYZ_TO_SRGB @ xyz, dtype=np.float64)
+
+
+def _lch_color(lightness: float, hue_deg: float) -> str:
+    """Hex sRGB of the CIELAB color of this lightness and hue (deg) with the largest chroma up
+    to NUMBERED_MAX_CHROMA that sRGB can show."""
+    cos_h, sin_h = math.cos(math.radians(hue_deg)), math.sin(math.radians(hue_deg))
+    lo, hi = 0.0, NUMBERED_MAX_CHROMA
+    for _ in range(30):  # bisection on the chroma: in gamut at lo, out of gamut above hi
+        mid = 0.5 * (lo + hi)
+        rgb = _lab_to_linear_srgb(lightness, mid * cos_h, mid * sin_h)
+        if np.all((rgb >= 0.0) & (rgb <= 1.0)):
+            lo = mid
+        else:
+            hi = mid
+    rgb = np.clip(_lab_to_linear_srgb(lightness, lo * cos_h, lo * sin_h), 0.0, 1.0)
+    srgb = np.where(rgb <= 0.0031308, 12.92 * rgb, 1.055 * rgb ** (1.0 / 2.4) - 0.055)
+    return "#" + "".join(f"{round(255 * float(c)):02x}" for c in srgb)
+
+
+def _perceptual_colors(n: int) -> list[str]:
+    """``n`` colors of lightness NUMBERED_LIGHTNESS, hues evenly spaced over NUMBERED_HUES_DEG."""
+    hues = np.linspace(*NUMBERED_HUES_DEG, n) if n > 1 else np.array([NUMBERED_HUES_DEG[0]])
+    return [_lch_color(NUMBERED_LIGHTNESS, float(h)) for h in hues]
+
+
+def _numbered_styles(n_runs: int) -> list[tuple[str, str]]:
+    """(color, line style) of each of ``n_runs`` runs, no pair twice (see runs_figure).
+
+    The colors cycle fastest, so runs next to each other in the list differ in color.
+    """
+    n_styles = min(len(NUMBERED_LINE_STYLES), math.ceil(n_runs / MAX_NUMBERED_COLORS))
+    n_colors = math.ceil(n_runs / n_styles)
+    colors = _perceptual_colors(n_colors)
+    return [(colors[k % n_colors], NUMBERED_LINE_STYLES[k // n_colors]) for k in range(n_runs)]
+
+
+def _reaches_end(run: RunData, length_m: float) -> bool:
+    """True when ``run``'s path ends at (or beyond) the lane end ``length_m`` (m)."""
+    return float(run.trajectory.position_m[-1, 0]) >= length_m - _END_TOLERANCE_M
+
+
+def _spread(targets: Sequence[float], step: float, lo: float, hi: float) -> list[float]:
+    """Positions at least ``step`` apart in [lo, hi], each as close to its target as it can be.
+
+    ``targets`` are sorted ascending; the positions keep their order. Clusters of positions
+    that would be closer than ``step`` are packed at ``step`` spacing around their targets'
+    mean (the least-squares placement), then moved inside [lo, hi]. When the positions cannot
+    fit, they are spaced evenly from lo to hi.
+    """
+    n = len(targets)
+    if n == 0:
+        return []
+    if (n - 1) * step > hi - lo:
+        return [float(v) for v in np.linspace(lo, hi, n)] if n > 1 else [0.5 * (lo + hi)]
+    clusters: list[tuple[int, int, float]] = []  # (first index, size, first position)
+
+    def placed(first: int, size: int) -> float:
+        mean = sum(targets[first + i] - i * step for i in range(size)) / size
+        return min(max(mean, lo), hi - (size - 1) * step)
+
+    for i in range(n):
+        first, size, start = i, 1, placed(i, 1)
+        while clusters and clusters[-1][2] + clusters[-1][1] * step > start:
+            first, prev_size, _ = clusters.pop()
+            size += prev_size
+            start = placed(first, size)
+        clusters.append((first, size, start))
+    return [start + i * step for _, size, start in clusters for i in range(size)]
+
+
+def _number_runs(ax: Axes, runs: Sequence[RunData], box: _LaneBox, colors: Sequence[str]) -> None:
+    """Number run k as k + 1 in its color, joined by a thin line to its path's end.
+
+    Paths reaching the lane end are numbered in columns beyond it, alternating between the
+    columns in order of the end's y and spread NUMBER_STEP_IN apart near their ends' heights;
+    the others in the gutter strip on their side of the center line, spread
+    NUMBER_GUTTER_STEP_IN apart along x.
+    """
+    ends = [
+        (float(r.trajectory.position_m[-1, 0]), float(r.trajectory.position_m[-1, 1])) for r in runs
+    ]
+    at_end = sorted(
+        (k for k, r in enumerate(runs) if _reaches_end(r, box.length_m)), key=lambda k: ends[k][1]
+    )
+    n_cols = box.number_columns(len(at_end))
+    step_y = NUMBER_STEP_IN / (box.ex * box.in_per_m)
+    lo_y, hi_y = box.y_lim[0] + 0.5 * step_y, box.y_lim[1] - 0.5 * step_y
+    for j in range(n_cols):
+        members = at_end[j::n_cols]
+        ys = _spread([ends[k][1] for k in members], step_y, lo_y, hi_y)
+        x = box.length_m + (NUMBER_X0_IN + j * NUMBER_COL_IN) / box.in_per_m
+        for k, y in zip(members, ys, strict=True):
+            _run_number(ax, k, ends[k], (x, y), colors[k], "left")
+    inside = set(at_end)
+    step_x = NUMBER_GUTTER_STEP_IN / box.in_per_m
+    for left_side in (False, True):
+        members = sorted(
+            (
+                k
+                for k in range(len(runs))
+                if k not in inside and (ends[k][1] > box.width_m / 2) == left_side
+            ),
+            key=lambda k: ends[k][0],
+        )
+        xs = _spread(
+            [ends[k][0] for k in members], step_x, 0.5 * step_x, box.length_m - 0.5 * step_x
+        )
+        y = 0.5 * (box.width_m + box.y_lim[1]) if left_side else 0.5 * box.y_lim[0]
+        for k, x in zip(members, xs, strict=True):
+            _run_number(ax, k, ends[k], (x, y), colors[k], "center")
+
+
+def _run_number(
+    ax: Axes, k: int, end: tuple[float, float], at: tuple[float, float], color: str, ha: str
+) -> Annotation:
+    """The number k + 1 at ``at`` (m), joined to the path's end ``end`` (m); gid run_number:k."""
+    number = ax.annotate(
+        str(k + 1),
+        xy=end,
+        xytext=at,
+        fontsize=NUMBER_FONTSIZE,
+        fontweight="bold",
+        color=color,
+        ha=ha,
+        va="center",
+        zorder=8,
+        path_effects=[withStroke(linewidth=2.0, foreground="white")],
+        arrowprops={"arrowstyle": "-", "color": color, "lw": 0.6, "shrinkA": 1.0, "shrinkB": 0.0},
+    )
+    number.set_gid(f"run_number:{k}")
+    return number
+
+
+def _numbered_legend(
+    fig: Figure, ax: Axes, runs: Sequence[RunData], handles: Sequence[Line2D]
+) -> Legend:
+    """The legend of numbered runs ("k. " + the run's short text) a fixed distance below the
+    lane, in as many balanced columns as fit in NUMBERED_LEGEND_WIDTH_IN; the figure is made
+    taller to hold it."""
+    labels = [f"{k + 1}. {_run_label(run, short=True)}" for k, run in enumerate(runs)]
+    below = offset_copy(ax.transAxes, fig=fig, y=-LEGEND_DROP_IN, units="inches")
+    fontsize = 8.0
+    column_gap_in = 2.0 * fontsize / 72.0
+
+    def legend(ncols: int) -> Legend:
+        return ax.legend(
+            handles=list(handles),
+            labels=labels,
+            loc="upper center",
+            bbox_to_anchor=(0.5, 0.0),
+            bbox_transform=below,
+            ncols=ncols,
+            fontsize=fontsize,
+            title_fontsize=8,
+            frameon=False,
+            handlelength=3.0,
+            columnspacing=2.0,
+        )
+
+    def width_in(leg: Legend) -> float:
+        return float(leg.get_window_extent().width) / fig.dpi
+
+    column_in = width_in(legend(1))
+    ncols = max(
+        1,
+        min(
+            len(labels),
+            int((NUMBERED_LEGEND_WIDTH_IN + column_gap_in) // (column_in + column_gap_in)),
+        ),
+    )
+    ncols = math.ceil(len(labels) / math.ceil(len(labels) / ncols))  # no empty column
+    result = legend(ncols)
+    while ncols > 1 and width_in(result) > NUMBERED_LEGEND_WIDTH_IN:
+        ncols -= 1
+        result = legend(ncols)
+    height_in = float(result.get_window_extent().height) / fig.dpi
+    ax.set_anchor("N")  # the lane at the top of its space, all spare height below for the legend
+    fig.set_size_inches(FIGURE_WIDTH_IN, fig.get_figheight() + height_in)
+    return result
+
+
+def _symbol_key(ax: Axes, *, numbered: bool = False) -> None:
+    """A key of the symbols, above the lane's upper right corner (with the head pin and the
+    run numbers if ``numbered``)."""
+    key = (
+        "|  start of rolling     - - -  straight line along the release velocity     "
+        "→  horizontal part of ω/|ω| (true angle)"
+    )
+    if numbered:
+        key = (
+            "|  start of rolling    - - -  straight line along the release velocity    "
+            "→  horizontal part of ω/|ω| (true angle)    ○  head pin    1, 2, …  runs"
+        )
     ax.text(
         1.0,
         1.015,
-        "|  start of rolling     - - -  straight line along the release velocity     "
-        "→  horizontal part of ω/|ω| (true angle)",
+        key,
         transform=ax.transAxes,
         fontsize=8,
         ha="right",

@@ -5,7 +5,7 @@ trajectory (``options.record`` other than ``'summary'``), the ``bowlrec[extra]``
 come from, and its writer: a function ``write(run, path) -> Path`` taking a
 :class:`~bowlrec.sinks.common.RunData` and the file to write, in the module that implements the
 format. That module is imported when the sink is first used, so this registry, ``import
-bowlrec`` and ``bowlrec --help`` load no format library (h5py, mcap, rerun, matplotlib).
+bowlrec`` and ``bowlrec --help`` load no format library (h5py, mcap, rerun, matplotlib, pandas).
 
 The command line (``simulate --out/--mcap/--rrd/--plot``, ``replay``, ``runs export``), the
 service (``GET /runs/ID/files/KIND``) and batch jobs (``formats``) all write through it::
@@ -143,6 +143,17 @@ SINKS: tuple[Sink, ...] = (
         True,
         "bowlrec.sinks.npz",
         "write_run_npz",
+    ),
+    Sink(
+        "csv",
+        (".csv",),
+        "CSV",
+        "the samples as a table, one row per sample, columns named with their units "
+        "(a summary-only run: its summary as one row; several runs: one summary row each)",
+        False,
+        "bowlrec.sinks.csv_file",
+        "write_run_csv",
+        many="write_csv_many",
     ),
     Sink(
         "plot",

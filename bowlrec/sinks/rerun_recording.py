@@ -1,6 +1,7 @@
 """A finished run as a rerun recording: an ``.rrd`` file or a live stream to a viewer.
 
-Units and frames: everything is SI (m, s, N, N m, rpm for the rev rate) in the lane frame of
+Units and frames: everything is SI (m, s, N, N m, rpm for the rev rate; the /summary text gives
+the hook in cm and the pocket angle in deg, as the CLI does) in the lane frame of
 :mod:`bowlrec.sinks.common` (x from the foul line toward the pins, y from the right gutter
 leftward, z up; the ball's geometric center at z = 0, the lane surface at z = -R). Time is the
 ``sim_time`` duration timeline (simulated seconds, stored as integer nanoseconds).
@@ -596,12 +597,16 @@ def _log_events(rec: rr.RecordingStream, traj: Trajectory) -> None:
 
 
 def _summary_markdown(run: RunData) -> str:
-    """The run's summary, the friction legend and the markings as a markdown document."""
+    """The run's summary, the friction legend and the markings as a markdown document.
+
+    Units as in the CLI's summary: slide, positions m; hook cm; pocket angle deg; time s;
+    speed m/s; rev rate rpm.
+    """
     s = run.trajectory.summary
     rows = [
         ("outcome", f"{s.outcome} ({s.message})"),
-        ("slide", "-" if s.slide_m is None else f"{s.slide_m:.3f} m"),
-        ("hook", "-" if s.hook_m is None else f"{s.hook_m * 1000:.1f} mm"),
+        ("slide", "never rolls" if s.slide_m is None else f"{s.slide_m:.3f} m"),
+        ("hook", "-" if s.hook_m is None else f"{100 * s.hook_m:.2f} cm"),
         ("pocket angle", "-" if s.pocket_deg is None else f"{s.pocket_deg:.2f} deg"),
         ("time", f"{s.time_s:.4f} s"),
         ("end position", f"x {s.x_end_m:.3f} m, y {s.y_end_m:.3f} m"),

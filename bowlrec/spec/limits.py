@@ -23,7 +23,8 @@ Why each bound:
 * samples per run 2,000,000: the integrator's step limit, so ``record: steps`` (one sample per
   step) and ``record: rate`` (max_time_s / record_dt_s samples, plus one at each event) have
   the same bound: 2,000,000 samples of 16 float64 values are 256 MB; a run that records them
-  needs about 0.75 GB while it is simulated.
+  needs several times that while it is simulated (benchmarks/results/hardening.md, "The
+  largest recording allowed").
 * friction zones 256: a zone map becomes a grid of up to (2n + 1)^2 cells.
 """
 

@@ -1,8 +1,15 @@
-"""Export the JSON Schemas of the scene models (the files under ``schemas/``)."""
+"""The JSON Schemas of bowlrec's input files (the files under ``schemas/``).
+
+``SCHEMAS`` names each schema and the function that returns its canonical text: the physical
+scene and its parts, the bowler-language scene (``"format": "bowler"``) and the batch job
+(``"format": "bowlrec-job"``). ``bowlrec schema NAME`` prints one; ``bowlrec schema --out
+DIR`` writes them all as ``DIR/NAME.schema.json``.
+"""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 from pydantic import BaseModel
@@ -13,9 +20,9 @@ from .lane import Lane
 from .options import Options
 from .scene import Scene
 
-__all__ = ["SCHEMA_MODELS", "export_schemas", "schema_text"]
+__all__ = ["SCHEMAS", "SCHEMA_MODELS", "export_schemas", "schema_file", "schema_text"]
 
-#: file name -> model
+#: file name -> model of the physical scene and its parts
 SCHEMA_MODELS: dict[str, type[BaseModel]] = {
     "scene.schema.json": Scene,
     "ball.schema.json": Ball,
@@ -30,13 +37,43 @@ def schema_text(model: type[BaseModel]) -> str:
     return json.dumps(model.model_json_schema(), indent=2, sort_keys=True) + "\n"
 
 
-def export_schemas(directory: str | Path) -> list[Path]:
-    """Write every schema of :data:`SCHEMA_MODELS` into ``directory``; returns the paths."""
+def _bowler_scene_text() -> str:
+    from bowlrec.bowling.scene import BowlerScene
+
+    return schema_text(BowlerScene)
+
+
+def _job_text() -> str:
+    from bowlrec.batch.job import job_schema_text
+
+    return job_schema_text()
+
+
+def _model_text(model: type[BaseModel]) -> Callable[[], str]:
+    return lambda: schema_text(model)
+
+
+#: schema name -> its canonical text (the file is ``NAME.schema.json``)
+SCHEMAS: dict[str, Callable[[], str]] = {
+    **{name.removesuffix(".schema.json"): _model_text(m) for name, m in SCHEMA_MODELS.items()},
+    "bowler-scene": _bowler_scene_text,
+    "job": _job_text,
+}
+
+
+def schema_file(name: str) -> str:
+    """The file name schema ``name`` is written to."""
+    return f"{name}.schema.json"
+
+
+def export_schemas(directory: str | Path, names: list[str] | None = None) -> list[Path]:
+    """Write the schemas ``names`` (default: all of :data:`SCHEMAS`) into ``directory``;
+    returns the paths."""
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, model in SCHEMA_MODELS.items():
-        path = out / name
-        path.write_text(schema_text(model), encoding="utf-8")
+    for name in names or list(SCHEMAS):
+        path = out / schema_file(name)
+        path.write_text(SCHEMAS[name](), encoding="utf-8")
         paths.append(path)
     return paths
