@@ -570,12 +570,12 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
                 values: list[Any] = [axis.low, axis.high]
             else:
                 values = _axis_values(axis)
+            where = f"sweep[{b}].axes[{path!r}]"
+            scratch = copy.deepcopy(base.data)  # each value overwrites the one path it sets
             for value in values:
-                where = f"sweep[{b}].axes[{path!r}]"
-                data = copy.deepcopy(base.data)
                 try:
-                    apply_override(data, path, value)
-                    data, _ = _library_ball(data, lookup)
+                    apply_override(scratch, path, value)
+                    data, _ = _library_ball(scratch, lookup)
                 except JobError as err:
                     raise JobError(f"{where}: {err}") from err
                 try:
