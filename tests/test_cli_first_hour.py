@@ -306,13 +306,18 @@ def test_batch_second_ctrl_c_stops_with_a_message(tmp_path: Path) -> None:
 def test_ctrl_c_before_work_starts_is_one_line(tmp_path: Path) -> None:
     """A Ctrl-C that lands before a command has set up its own handling (here: while the
     kernel warms up in ``paper``) ends with one line and status 130."""
+    start = (  # says when the command line is imported, then runs the command
+        "import sys; import bowlrec.cli as cli; print('ready', file=sys.stderr, flush=True); "
+        "sys.argv = ['bowlrec', 'paper', '--json']; cli.main()"
+    )
     proc = subprocess.Popen(
-        [sys.executable, "-m", "bowlrec.cli", "paper", "--json"],
+        [sys.executable, "-c", start],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
-    time.sleep(1.5)
+    assert proc.stderr is not None and proc.stderr.readline() == "ready\n"
+    time.sleep(0.5)  # inside the command: its kernels load and run for seconds
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
     if proc.returncode == 0:
