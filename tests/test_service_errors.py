@@ -194,7 +194,7 @@ BAD_PARAMETERS = [
     ),
     (
         "/runs/abcd/files/pdf",
-        "path parameter kind: Input should be 'hdf5', 'mcap' or 'rrd' (got 'pdf')",
+        "path parameter kind: Input should be 'hdf5', 'mcap', 'rrd' or 'csv' (got 'pdf')",
     ),
 ]
 

@@ -489,7 +489,7 @@ def test_404_and_other_error_details_name_no_server_path(
             raise ImportError(f"No module named 'foxglove' ({root}/lib/foxglove)", name="foxglove")
 
         with monkeypatch.context() as m:
-            m.setattr(state.archive, "run_data", lambda rid: object())
+            m.setattr(state.replays, "run", lambda rid: object())
             m.setattr("bowlrec.sinks.registry.importlib.import_module", no_foxglove)
             r = client.get("/runs/0123456789abcdef0123/files/mcap")
         assert r.status_code == 501 and "pip install 'bowlrec[mcap]'" in r.json()["detail"]

@@ -34,6 +34,7 @@ __all__ = [
     "IndexUnreadableError",
     "create_schema",
     "open_index",
+    "count_sql",
     "select_sql",
     "transaction",
 ]
@@ -332,25 +333,66 @@ def select_sql(
     order_by: str,
     limit: int | None,
     clauses: Sequence[tuple[str, Sequence[Any]]] = (),
+    offset: int = 0,
 ) -> tuple[str, list[Any]]:
     """The SELECT statement and its parameters for :meth:`Archive.list_runs`.
 
-    ``clauses`` are extra (sql, params) conditions on table ``r`` ANDed with the filters.
+    ``clauses`` are extra (sql, params) conditions ANDed with the filters; ``offset``: rows of
+    the ordered result skipped first. Rows that tie on the sort column come in the order they
+    were indexed (the same direction as the sort), so an index on the sort column (creation
+    time, outcome) gives the whole order.
+
+    A page (``limit``) whose filters and order read only table ``runs`` is selected by run
+    first and joined after (a deferred join): the rows skipped by ``offset`` are read from the
+    index alone, so the last page of a million runs costs about what the first does
+    (``benchmarks/results/web.md``).
     """
-    if order_by.lstrip("-") not in INDEX_COLUMNS:
+    column = order_by.lstrip("-")
+    if column not in INDEX_COLUMNS:
         raise IndexQueryError(f"cannot order by unknown column {order_by!r}")
+    direction = "DESC" if order_by.startswith("-") else "ASC"
+    order = f" ORDER BY {_LISTED[column]} {direction}, r.seq {direction}"
+    page = ""
+    if limit is not None or offset:
+        page = f" LIMIT {-1 if limit is None else int(limit)}"
+    if offset:
+        page += f" OFFSET {int(offset)}"
+    only_runs = not clauses and all(_LISTED[c].startswith("r.") for c in _columns(filters, column))
+    if page and only_runs:
+        where, params = _where_sql(filters, ())
+        inner = f"SELECT r.seq FROM runs r{where}{order}{page}"
+        sql = f"SELECT {SELECT_COLUMNS} FROM {FROM_RUNS} WHERE r.seq IN ({inner}){order}"
+        return sql, params
+    where, params = _where_sql(filters, clauses)
+    return f"SELECT {SELECT_COLUMNS} FROM {FROM_RUNS}{where}{order}{page}", params
+
+
+def _columns(filters: Sequence[Filter], order_column: str) -> list[str]:
+    """The listed columns a query reads: its filters' and its order's."""
+    return [f.column for f in filters] + [order_column]
+
+
+def count_sql(
+    filters: Sequence[Filter],
+    clauses: Sequence[tuple[str, Sequence[Any]]] = (),
+    cap: int | None = None,
+) -> tuple[str, list[Any]]:
+    """The statement counting the runs :func:`select_sql` would list (at most ``cap``: a
+    count stops there, so that counting a broad filter of a million runs stays cheap)."""
+    where, params = _where_sql(filters, clauses)
+    inner = f"SELECT 1 FROM {FROM_RUNS}{where}"
+    if cap is not None:
+        inner += f" LIMIT {int(cap)}"
+    return f"SELECT COUNT(*) FROM ({inner})", params
+
+
+def _where_sql(
+    filters: Sequence[Filter], clauses: Sequence[tuple[str, Sequence[Any]]]
+) -> tuple[str, list[Any]]:
     params: list[Any] = [p for _, ps in clauses for p in ps]
     clauses_sql = [f"({c})" for c, _ in clauses]
     for f in filters:
         clause, value = f.sql()
         clauses_sql.append(clause)
         params.append(value)
-    where = f" WHERE {' AND '.join(clauses_sql)}" if clauses_sql else ""
-    direction = "DESC" if order_by.startswith("-") else "ASC"
-    sql = (
-        f"SELECT {SELECT_COLUMNS} FROM {FROM_RUNS}"
-        f"{where} ORDER BY {_LISTED[order_by.lstrip('-')]} {direction}, r.run_id"
-    )
-    if limit is not None:
-        sql += f" LIMIT {int(limit)}"
-    return sql, params
+    return (f" WHERE {' AND '.join(clauses_sql)}" if clauses_sql else ""), params

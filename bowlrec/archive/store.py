@@ -55,6 +55,7 @@ from .index import (
     FROM_RUNS,
     SELECT_COLUMNS,
     Filter,
+    count_sql,
     iso_time,
     listed_row,
     open_index,
@@ -528,12 +529,45 @@ class Archive:
         where: Sequence[Filter | str] = (),
         order_by: str = "created_at",
         limit: int | None = None,
+        offset: int = 0,
     ) -> list[dict[str, Any]]:
         """Index rows (dicts keyed by :data:`~bowlrec.archive.index.INDEX_COLUMNS`), filtered.
 
         ``ball`` is a library name or ``name@version``; ``where`` holds conditions such as
-        ``"hook_m>=0.1"`` (any index column, ops <= >= != = < >). Reads only the index.
+        ``"hook_m>=0.1"`` (any index column, ops <= >= != = < >); ``offset`` rows of the
+        ordered result are skipped (pages of a table). Reads only the index.
         """
+        filters, clauses = self._run_filters(ball, pattern, outcome, name, where)
+        sql, params = select_sql(filters, order_by, limit, clauses, offset=offset)
+        # one SELECT reads one consistent snapshot (and the in-memory index of a process that
+        # may not write is shared by its threads: no transaction is opened on it)
+        return [listed_row(r) for r in self.index_reader().execute(sql, params)]
+
+    def count_runs(
+        self,
+        *,
+        ball: str | None = None,
+        pattern: str | None = None,
+        outcome: str | None = None,
+        name: str | None = None,
+        where: Sequence[Filter | str] = (),
+        cap: int | None = None,
+    ) -> int:
+        """How many runs :meth:`list_runs` lists with these filters, counting at most ``cap``
+        (a count of ``cap`` means "at least ``cap``")."""
+        filters, clauses = self._run_filters(ball, pattern, outcome, name, where)
+        sql, params = count_sql(filters, clauses, cap)
+        return int(self.index_reader().execute(sql, params).fetchone()[0])
+
+    def _run_filters(
+        self,
+        ball: str | None,
+        pattern: str | None,
+        outcome: str | None,
+        name: str | None,
+        where: Sequence[Filter | str],
+    ) -> tuple[list[Filter], list[tuple[str, list[Any]]]]:
+        """The filters and extra SQL clauses of :meth:`list_runs`' arguments."""
         if outcome is not None and outcome not in OUTCOMES.values():
             raise InputError(
                 f"outcome {outcome!r} is not an outcome; the outcomes are "
@@ -545,10 +579,7 @@ class Archive:
         for column, value in (("pattern", pattern), ("outcome", outcome), ("name", name)):
             if value is not None:
                 filters.append(Filter(column, "=", value))
-        sql, params = select_sql(filters, order_by, limit, clauses)
-        # one SELECT reads one consistent snapshot (and the in-memory index of a process that
-        # may not write is shared by its threads: no transaction is opened on it)
-        return [listed_row(r) for r in self.index_reader().execute(sql, params)]
+        return filters, clauses
 
     def _ball_clause(self, ball: str) -> tuple[str, list[Any]]:
         """Runs that used library ball ``name`` (any version) or ``name@version``: by the

@@ -9,7 +9,6 @@ from typing import Annotated, Any
 
 import typer
 
-import bowlrec
 from bowlrec.archive.migrate import migrate as run_migration
 from bowlrec.cli._common import interactive
 from bowlrec.sinks.registry import sink_for, sink_named
@@ -380,8 +379,16 @@ def replay(
         fail("nothing to do: give --rrd FILE, --connect URL, --spawn, --mcap FILE or --plot FILE")
     files = requested_files(rrd=rrd, mcap=mcap, plot=plot)
     store = _open(archive, create=False)
+    from bowlrec.archive.replay import replay_data
+
     with archive_errors():
-        data = store.run_data(store.resolve_id(run))
+        data = replay_data(store, store.resolve_id(run))
+        if data.provenance and "rerecorded_dt_s" in data.provenance:
+            dt_ms = 1000 * float(data.provenance["rerecorded_dt_s"])
+            typer.echo(
+                f"summary-only run: re-recorded from its stored scene at {dt_ms:g} ms "
+                "(checked against the stored summary)"
+            )
         for line in write_outputs(data, files, connect=connect, spawn=spawn):
             typer.echo(line)
 
@@ -424,9 +431,6 @@ def plot(
 
 def _simulated(scene: Any) -> Any:
     """A scene file simulated on the spot (sampled at 5 ms if the scene is summary-only)."""
-    from bowlrec.sinks import RunData
+    from bowlrec.archive.replay import simulate_sampled
 
-    if scene.options.record == "summary":
-        options = scene.options.model_copy(update={"record": "rate", "record_dt_s": 0.005})
-        scene = scene.model_copy(update={"options": options})
-    return RunData(scene, scene.resolve(), bowlrec.simulate(scene))
+    return simulate_sampled(scene)

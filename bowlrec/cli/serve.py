@@ -18,6 +18,8 @@ import os
 import signal
 import socket
 import threading
+import time
+from pathlib import Path
 from types import FrameType
 from typing import Annotated, Any
 
@@ -121,16 +123,6 @@ def serve(
     if not 0 < max_body_mb <= MAX_BODY_MB:  # also refuses nan and inf
         fail(f"--max-body-mb must be in (0, {MAX_BODY_MB:g}] (got {max_body_mb!r})")
     max_body_bytes = int(max_body_mb * 1024 * 1024)
-    try:
-        import uvicorn
-
-        from bowlrec.service.app import create_app
-    except ImportError as err:
-        raise MissingExtraError(
-            f"bowlrec serve needs {err.name or err}, which is not installed; install it with: "
-            "pip install 'bowlrec[service]'",
-            name=err.name,
-        ) from None
     allowed = list(allowed_host or [])
     for name in allowed:
         if host_name(name) is None:
@@ -141,8 +133,103 @@ def serve(
         sockets = bind_sockets(host, port)
     except OSError as err:
         fail(f"cannot listen on {host_port(host, port)}: {listen_error(err, host, port)}")
+    auth = f"token from ${token_env}" if token else "no token"
+    _serve(
+        sockets,
+        archive,
+        host,
+        token,
+        auth,
+        log_level=log_level,
+        job_workers=job_workers,
+        scheduler=scheduler,
+        max_body_bytes=max_body_bytes,
+        allowed_hosts=allowed,
+    )
+
+
+@app.command("ui")
+def ui(
+    archive: Annotated[
+        Path | None,
+        typer.Argument(
+            help="The archive directory (default: BOWLREC_ARCHIVE, the config file, or "
+            "./bowlrec-archive)."
+        ),
+    ] = None,
+    port: Annotated[
+        int,
+        typer.Option(help="TCP port on 127.0.0.1 (a free one is taken if it is in use).", min=0),
+    ] = 8000,
+    browser: Annotated[
+        bool,
+        typer.Option(help="Open the page in the browser (when the machine has a display)."),
+    ] = True,
+    log_level: Annotated[
+        str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
+    ] = "warning",
+) -> None:
+    """Browse an archive in the web browser: the runs, a run with the rerun viewer, Compare,
+    balls, oil patterns and jobs.
+
+    Serves on 127.0.0.1 only, without a token (use `bowlrec serve` for anything else).
+    """
     try:
-        store = open_archive(archive)
+        sockets = bind_sockets("127.0.0.1", port)
+    except OSError as err:
+        if err.errno != errno.EADDRINUSE or port == 0:
+            fail(f"cannot listen on 127.0.0.1:{port}: {listen_error(err, '127.0.0.1', port)}")
+        sockets = bind_sockets("127.0.0.1", 0)
+    _serve(
+        sockets,
+        archive,
+        "127.0.0.1",
+        None,
+        "loopback only, no token",
+        log_level=log_level,
+        open_browser=browser and has_display(),
+        create=False,
+    )
+
+
+def has_display() -> bool:
+    """True when a graphical browser can be opened (macOS, Windows, or X11/Wayland)."""
+    import sys
+
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _serve(
+    sockets: list[socket.socket],
+    archive: Path | None,
+    host: str,
+    token: str | None,
+    auth: str,
+    *,
+    log_level: str,
+    open_browser: bool = False,
+    job_workers: int = 0,
+    scheduler: str | None = None,
+    max_body_bytes: int | None = DEFAULT_MAX_BODY_BYTES,
+    allowed_hosts: list[str] | None = None,
+    create: bool = True,
+) -> None:
+    """Open the archive (``create``: a new one if there is none) and serve it on the bound
+    ``sockets`` until Ctrl-C (exit 130)."""
+    try:
+        try:
+            import uvicorn
+
+            from bowlrec.service.app import create_app
+        except ImportError as err:
+            raise MissingExtraError(
+                f"bowlrec serve needs {err.name or err}, which is not installed; install it "
+                "with: pip install 'bowlrec[service]'",
+                name=err.name,
+            ) from None
+        store = open_archive(archive, create=create)
         if scheduler is None:
             scheduler = config_value("scheduler")
         application = create_app(  # JobsLockedError when another server runs its jobs
@@ -151,28 +238,39 @@ def serve(
             job_workers=job_workers,
             scheduler=scheduler,
             max_body_bytes=max_body_bytes,
-            allowed_hosts=allowed,
+            allowed_hosts=allowed_hosts or (),
         )
     except BaseException:
         for sock in sockets:
             sock.close()
         raise
     bound_port = sockets[0].getsockname()[1]
-    auth = f"token from ${token_env}" if token else "no token"
-    typer.echo(
-        f"bowlrec: serving {store.root} on http://{host_port(host, bound_port)} ({auth}); "
-        "docs at /docs",
-        err=True,
-    )
+    url = f"http://{host_port(host, bound_port)}/"
+    typer.echo(f"bowlrec: serving {store.root} on {url} ({auth}); docs at /docs", err=True)
     config = uvicorn.Config(application, host=host, port=bound_port, log_level=log_level)
-    interrupted, cut_off = run_server(config, sockets)
+    interrupted, cut_off = run_server(
+        config, sockets, on_started=_browser(url) if open_browser else None
+    )
     if interrupted:
         lost = f" ({cut_off} request(s) in progress cut off)" if cut_off else ""
         typer.echo(f"bowlrec: stopped{lost}", err=True)
         raise typer.Exit(EXIT_INTERRUPTED)
 
 
-def run_server(config: Any, sockets: list[socket.socket]) -> tuple[bool, int]:
+def _browser(url: str) -> Any:
+    """A callback opening ``url`` in the default browser."""
+
+    def open_page() -> None:
+        import webbrowser
+
+        webbrowser.open(url)
+
+    return open_page
+
+
+def run_server(
+    config: Any, sockets: list[socket.socket], on_started: Any = None
+) -> tuple[bool, int]:
     """Serve the ``uvicorn.Config`` on ``sockets`` until the server stops: whether Ctrl-C
     (SIGINT) stopped it, and how many requests in progress a forced stop cut off.
 
@@ -182,7 +280,8 @@ def run_server(config: Any, sockets: list[socket.socket]) -> tuple[bool, int]:
     progress are cut off and counted, not logged with a traceback); the application is still
     shut down. uvicorn raises the signal again once it has restored the handler installed
     here, which only notes it; from then on SIGINT is ignored, so no later Ctrl-C interrupts
-    the clean-up (or the interpreter's exit) with a traceback.
+    the clean-up (or the interpreter's exit) with a traceback. ``on_started`` is called
+    (in a thread) once the server accepts requests.
     """
     import asyncio
     import logging
@@ -201,6 +300,15 @@ def run_server(config: Any, sockets: list[socket.socket]) -> tuple[bool, int]:
 
     server = Server(config)
     cut_off = 0
+    if on_started is not None:
+
+        def when_started() -> None:
+            while not server.started and not server.should_exit:
+                time.sleep(0.05)
+            if server.started:
+                on_started()
+
+        threading.Thread(target=when_started, name="bowlrec-open-browser", daemon=True).start()
 
     def not_cut_off(record: logging.LogRecord) -> bool:
         """False for uvicorn's report of a request cancelled as a forced stop ends the loop."""

@@ -5,9 +5,9 @@ Errors are ``{"detail": "<message>"}``, one line unless noted. An error of
 (:data:`STATUS_CODES`): 422 for an InputError (an invalid scene, ball or job spec -- one
 ``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
 -- a bad run filter or ball reference), 404 for a NotFoundError (unknown run, ball or job), 409
-for a ConflictError (replay of a summary-only run, a job not cancellable or resumable, a job
-whose record is damaged) and a DamagedError (a stored run found damaged: the message names the
-run and its segment; `bowlrec runs repair` quarantines it), 503 with ``Retry-After`` for a
+for a ConflictError (a summary-only run whose re-recording differs from its stored summary, a
+job not cancellable or resumable, a job whose record is damaged) and a DamagedError (a stored
+run found damaged: the message names the run and its segment; `bowlrec runs repair` quarantines it), 503 with ``Retry-After`` for a
 BusyError (every recording slot is busy and enough recorded runs wait), 507 for a StorageError
 (the archive could not be written, e.g. a full disk; nothing stored was lost), 501 for an
 UnavailableError (an optional format library is not installed). The HTTP layer adds 400 (a
@@ -69,6 +69,11 @@ from bowlrec.errors import (
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import Scene
 from bowlrec.spec.errors import MAX_ECHO, format_errors, printable
+from bowlrec.web import assets
+from bowlrec.web.api import ReplayCache, figures
+from bowlrec.web.pages import pages
+from bowlrec.web.seeds import JOB_EXAMPLE, SCENE_EXAMPLE
+from bowlrec.web.viewer_assets import ViewerAssets
 
 from .body_limit import DEFAULT_MAX_BODY_BYTES, BodyLimitMiddleware
 from .jobs import JobManager
@@ -111,8 +116,11 @@ FILE_KINDS: dict[str, str] = {
     "hdf5": "application/x-hdf5",
     "mcap": "application/octet-stream",
     "rrd": "application/octet-stream",
+    "csv": "text/csv",
 }
-FileKind = Literal["hdf5", "mcap", "rrd"]
+FileKind = Literal["hdf5", "mcap", "rrd", "csv"]
+#: file kinds that replay samples: a summary-only run is re-recorded from its scene for them
+REPLAY_KINDS = frozenset({"mcap", "rrd"})
 
 #: the largest ``limit`` of ``GET /runs``: SQLite's largest integer
 MAX_LIST_LIMIT = 2**63 - 1
@@ -131,48 +139,6 @@ STATUS_CODES: dict[type[BowlrecError], int] = {
 
 _ERRORS: dict[int | str, dict[str, Any]] = {
     code: {"model": ErrorResponse} for code in sorted({400, 401, 403, 413, *STATUS_CODES.values()})
-}
-
-SCENE_EXAMPLE = {
-    "summary-only": {
-        "summary": "A physical scene (defaults for everything not given)",
-        "value": {
-            "name": "quick",
-            "delivery": {"speed_mps": 8.0},
-            "options": {"record": "summary"},
-        },
-    },
-    "bowler": {
-        "summary": "A bowler-language scene",
-        "value": {
-            "format": "bowler",
-            "delivery": {"speed_mph": 17, "rev_rate_rpm": 300},
-            "options": {"record": "rate", "record_dt_s": 0.005},
-        },
-    },
-}
-
-JOB_EXAMPLE = {
-    "grid": {
-        "summary": "A speed x rev-rate grid on a physical base scene",
-        "value": {
-            "format": "bowlrec-job",
-            "name": "speed-rev",
-            "base": {"name": "grid"},
-            "sweep": {
-                "kind": "grid",
-                "axes": {
-                    "delivery.speed_mps": {"start": 7.0, "stop": 9.0, "num": 5},
-                    "delivery.omega_radps[1]": [20.0, 25.0, 30.0],
-                },
-            },
-            "record": "summary",
-        },
-    },
-    "scenes": {
-        "summary": "Explicit scenes (shorthand)",
-        "value": {"name": "two", "scenes": [{"delivery": {"speed_mps": 7.5}}, {"name": "b"}]},
-    },
 }
 
 
@@ -199,6 +165,10 @@ class _State:
         #: recorded simulations at once: each may hold up to 2,000,000 samples (about 0.75 GB,
         #: benchmarks/results/hardening.md), so the server's memory is bounded by the core count
         self.recordings = RecordingSlots(os.cpu_count() or 1)
+        #: runs with samples for figures and replay files (summary-only ones re-recorded)
+        self.replays = ReplayCache(archive)
+        #: the rerun web viewer's files, served at /viewer/
+        self.viewer = ViewerAssets()
         self._file_locks: dict[Path, threading.Lock] = {}
         self._mutex = threading.Lock()
 
@@ -324,16 +294,18 @@ def get_spec(state: StateDep, run_id: str) -> dict[str, Any]:
 
 
 def _cached_file(state: _State, rid: str, kind: str) -> Path:
-    """The run written by sink ``kind`` (a one-run HDF5 file, an MCAP or an RRD), generated
-    once into ``ARCHIVE/cache/<kind>/`` from the run's checked bytes (the writers rename a
-    complete file into place, so readers never see a partial one)."""
+    """The run written by sink ``kind`` (a one-run HDF5 file, a CSV, an MCAP or an RRD),
+    generated once into ``ARCHIVE/cache/<kind>/`` from the run's checked bytes (the writers
+    rename a complete file into place, so readers never see a partial one). MCAP and RRD
+    replay samples: a summary-only run is re-recorded for them (:class:`ReplayCache`)."""
     sink = sink_named(kind)
     path = state.cache_dir / kind / rid[:2] / f"{rid}{sink.suffix}"
     with state.file_lock(path):
         if path.exists():
             return path
+        run = state.replays.run(rid) if kind in REPLAY_KINDS else state.archive.run_data(rid)
         try:
-            return sink.write(state.archive.run_data(rid), path)
+            return sink.write(run, path)
         except SamplesRequiredError as err:
             raise SamplesRequiredError(f"run {rid} cannot be replayed: {err}") from None
 
@@ -344,13 +316,28 @@ def _cached_file(state: _State, rid: str, kind: str) -> Path:
     responses={200: {"content": {"application/octet-stream": {}, "application/x-hdf5": {}}}},
 )
 def get_file(state: StateDep, run_id: str, kind: FileKind) -> FileResponse:
-    """The run as a self-contained one-run HDF5 file (``hdf5``, format ``bowlrec-run``), or
-    its replay as MCAP (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first
-    request and cached in the archive. 409 for a summary-only run (no samples to replay) or a
-    run found damaged, 501 when the format's optional libraries are not installed."""
+    """The run as a self-contained one-run HDF5 file (``hdf5``, format ``bowlrec-run``), its
+    samples as CSV (``csv``; the summary row for a summary-only run), or its replay as MCAP
+    (``mcap``, Foxglove) or a rerun recording (``rrd``), generated on first request and cached
+    in the archive. A summary-only run is re-recorded from its stored scene for MCAP and RRD
+    (deterministic; checked against the stored summary, 409 if it differs). 409 for a run
+    found damaged, 501 when the format's optional libraries are not installed."""
     rid = state.archive.resolve_id(run_id)
     path = _cached_file(state, rid, kind)
     return FileResponse(path, media_type=FILE_KINDS[kind], filename=path.name)
+
+
+@runs.get(
+    "/{run_id}/recording.rrd",
+    response_class=FileResponse,
+    responses={200: {"content": {"application/octet-stream": {}}}},
+)
+def get_recording(state: StateDep, run_id: str) -> FileResponse:
+    """The run's rerun recording, as ``files/rrd``, at a URL ending in ``.rrd``: the rerun
+    web viewer opens a ``?url=`` only by its suffix (the web page's viewer plays this)."""
+    rid = state.archive.resolve_id(run_id)
+    path = _cached_file(state, rid, "rrd")
+    return FileResponse(path, media_type=FILE_KINDS["rrd"], filename=path.name)
 
 
 # -- balls ---------------------------------------------------------------------------------------
@@ -686,6 +673,8 @@ def create_app(
         state.jobs.start()
         state.commits.start()
         if warm_up:
+            assets.prepare_viewer_in_background(state.viewer)
+        if warm_up:
             await run_in_threadpool(_warm_up)
         try:
             yield
@@ -699,12 +688,17 @@ def create_app(
         summary="Bowling-ball motion simulator and trajectory archive",
         description=__doc__,
         lifespan=lifespan,
+        docs_url=None,  # /docs and /redoc: bowlrec.web.assets, from local files (no CDN)
+        redoc_url=None,
     )
     app.state.bowlrec = state
     secured = [Depends(_check_token)]
+    app.include_router(figures, dependencies=secured, responses=_ERRORS)
     for router in (runs, balls, jobs):
         app.include_router(router, dependencies=secured)
     app.include_router(sessions)
+    app.include_router(pages)
+    assets.mount(app)
     if max_body_bytes is not None:
         app.add_middleware(BodyLimitMiddleware, max_bytes=max_body_bytes)
     # added last: the outermost layer, before the body is read

@@ -524,6 +524,18 @@ class JobManager:
             with self._mutex:
                 self._set(rec, "failed", error=f"{type(err).__name__}: {err}")
 
+    def spec(self, job_id: str) -> JobSpec:
+        """The job's spec as persisted at submission; JobNotFoundError for an unknown job,
+        JobConflictError when its spec file is damaged."""
+        with self._mutex:
+            if job_id in self._damaged:
+                raise JobConflictError(f"job {job_id}: {self._damaged[job_id].error}")
+            self._record(job_id)
+        try:
+            return self._job(job_id)
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise JobConflictError(f"job {job_id}: its spec cannot be read ({err})") from None
+
     def _job(self, job_id: str) -> JobSpec:
         """The job as persisted at submission (library balls frozen)."""
 

@@ -1,0 +1,317 @@
+"""The HTML pages of ``bowlrec serve``: server-rendered (Jinja2) with a little JavaScript.
+
+``/`` is the runs table; the other pages live under ``/ui/``: a run (``/ui/runs/{id}``),
+Compare (``/ui/compare?ids=A&ids=B``), the ball library (``/ui/balls``), oil patterns
+(``/ui/patterns``) and jobs (``/ui/jobs``, ``/ui/jobs/{id}``). Their figures, files and live
+progress come from the JSON/figure API (:mod:`bowlrec.web.api`), which the pages call with the
+browser's cookie session; a server with a token shows a sign-in form until the session is open.
+Everything the pages load is served by this server (``/static``, ``/viewer``): no CDN.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from fastapi import APIRouter, Request
+from fastapi.responses import HTMLResponse, Response
+from fastapi.templating import Jinja2Templates
+
+import bowlrec
+from bowlrec.core.codes import OUTCOMES
+from bowlrec.errors import BowlrecError, InputError
+
+from .seeds import SEEDS
+from .tables import PAGE_SIZES, RANGES, RUN_COLUMNS, RunsQuery, runs_page
+
+__all__ = ["TEMPLATES_DIR", "pages"]
+
+TEMPLATES_DIR = Path(__file__).parent / "templates"
+templates = Jinja2Templates(directory=str(TEMPLATES_DIR))
+templates.env.globals["version"] = bowlrec.__version__
+
+pages = APIRouter(include_in_schema=False)
+
+#: headers of every page: only this server's scripts, styles, images and frames; no page of
+#: another site may frame ours (clickjacking)
+PAGE_HEADERS = {
+    "Content-Security-Policy": (
+        "default-src 'self'; img-src 'self' data:; style-src 'self'; script-src 'self'; "
+        "frame-src 'self'; connect-src 'self'; frame-ancestors 'self'; form-action 'self'"
+    ),
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "same-origin",
+}
+
+#: summary fields of a run as the run and Compare pages show them: (label, key, scale, format)
+SUMMARY_FIELDS: tuple[tuple[str, str, float, str], ...] = (
+    ("outcome", "outcome", 1.0, ""),
+    ("slide (m)", "slide_m", 1.0, ".4f"),
+    ("hook (cm)", "hook_m", 100.0, ".3f"),
+    ("pocket angle (deg)", "pocket_deg", 1.0, ".3f"),
+    ("time (s)", "time_s", 1.0, ".4f"),
+    ("end x (m)", "x_end_m", 1.0, ".4f"),
+    ("end y (m)", "y_end_m", 1.0, ".4f"),
+    ("speed at release (m/s)", "speed_mps", 1.0, ".3f"),
+    ("speed at the end (m/s)", "speed_end_mps", 1.0, ".3f"),
+    ("rev rate at release (rpm)", "rev_rate_rpm", 1.0, ".1f"),
+    ("rev rate at the end (rpm)", "rev_rate_end_rpm", 1.0, ".1f"),
+    ("mass (kg)", "mass_kg", 1.0, ".4f"),
+    ("ball", "ball", 1.0, ""),
+    ("pattern", "pattern", 1.0, ""),
+    ("recorded", "record", 1.0, ""),
+    ("samples", "n_samples", 1.0, "d"),
+    ("steps / RHS", "steps_rhs", 1.0, ""),
+    ("physics", "physics_version", 1.0, ""),
+    ("created (UTC)", "created_at", 1.0, ""),
+)
+#: bowler-report fields shown on a run page: (label, key, format)
+REPORT_FIELDS: tuple[tuple[str, str, str], ...] = (
+    ("hand", "handedness", ""),
+    ("laydown board", "laydown_board", ".1f"),
+    ("launch speed (mph)", "launch_speed_mph", ".2f"),
+    ("launch angle (deg)", "launch_angle_deg", ".2f"),
+    ("rev rate at release (rpm)", "rev_rate_release_rpm", ".0f"),
+    ("axis rotation / tilt at release (deg)", "axis_release", ""),
+    ("board at the arrows", "arrows_board", ".1f"),
+    ("breakpoint (board @ ft)", "breakpoint", ""),
+    ("entry board", "entry_board", ".1f"),
+    ("entry angle (deg)", "entry_angle_deg", ".2f"),
+    ("entry speed (mph)", "entry_speed_mph", ".2f"),
+    ("hook (boards)", "hook_boards", ".1f"),
+    ("slide (ft)", "slide_ft", ".1f"),
+)
+
+
+def _state(request: Request) -> Any:
+    return request.app.state.bowlrec
+
+
+def _signed_in(request: Request) -> bool:
+    """True when the request may see the archive: no token, the bearer token or a session."""
+    from bowlrec.service.security import COOKIE_NAME, bearer_matches
+
+    state = _state(request)
+    if state.token is None:
+        return True
+    if bearer_matches(request.headers.get("authorization"), state.token):
+        return True
+    return bool(state.sessions.valid(request.cookies.get(COOKIE_NAME)))
+
+
+def _render(
+    request: Request, template: str, status_code: int = 200, **context: Any
+) -> HTMLResponse:
+    if not _signed_in(request):
+        template, status_code = "signin.html", 401
+        context = {"page": "signin", "title": "Sign in"}
+    context.setdefault("page", template.removesuffix(".html"))
+    response = templates.TemplateResponse(request, template, context, status_code=status_code)
+    response.headers.update(PAGE_HEADERS)
+    return response
+
+
+def _error_page(request: Request, err: BowlrecError) -> HTMLResponse:
+    """The error as a page, with the status the API gives it."""
+    from bowlrec.service.app import status_for
+
+    redact = _state(request).redact
+    return _render(
+        request,
+        "error.html",
+        status_code=status_for(err),
+        title="Error",
+        message=redact(str(err)),
+    )
+
+
+def fmt(value: Any, spec: str = "", scale: float = 1.0) -> str:
+    """A value as a page shows it ('' for None; numbers scaled and formatted)."""
+    if value is None:
+        return ""
+    if spec and isinstance(value, int | float) and not isinstance(value, bool):
+        return format(value * scale if scale != 1.0 else value, spec)
+    return str(value)
+
+
+templates.env.filters["fmt"] = fmt
+
+
+def summary_cells(row: dict[str, Any]) -> list[tuple[str, str]]:
+    """(label, shown value) of each :data:`SUMMARY_FIELDS` entry for an index row."""
+    row = dict(row)
+    if row.get("ball_name") is not None:
+        row["ball"] = f"{row['ball_name']}@{row.get('ball_version')}"
+    row["steps_rhs"] = f"{row.get('n_steps')} / {row.get('n_rhs')}"
+    row["created_at"] = str(row.get("created_at") or "")[:19].replace("T", " ")
+    return [(label, fmt(row.get(key), spec, scale)) for label, key, scale, spec in SUMMARY_FIELDS]
+
+
+def report_cells(report: dict[str, Any]) -> list[tuple[str, str]]:
+    """(label, shown value) of each :data:`REPORT_FIELDS` entry of a bowler report."""
+    shown = dict(report)
+    shown["axis_release"] = (
+        f"{report['axis_rotation_release_deg']:.1f} / {report['axis_tilt_release_deg']:.1f}"
+    )
+    shown["breakpoint"] = f"{report['breakpoint_board']:.1f} @ {report['breakpoint_ft']:.1f}"
+    return [(label, fmt(shown.get(key), spec)) for label, key, spec in REPORT_FIELDS]
+
+
+# -- runs ----------------------------------------------------------------------------------------
+
+
+@pages.get("/", response_class=HTMLResponse)
+def runs_table(request: Request) -> Response:
+    """The runs table: filters, sort and pages on the server (the index only)."""
+    state = _state(request)
+    params = dict(request.query_params)
+    context: dict[str, Any] = {
+        "title": "Runs",
+        "columns": RUN_COLUMNS,
+        "outcomes": list(OUTCOMES.values()),
+        "ranges": RANGES,
+        "page_sizes": PAGE_SIZES,
+        "params": params,
+        "balls": [e.name for e in state.archive.balls.list()] if _signed_in(request) else [],
+    }
+    try:
+        query = RunsQuery.parse(params)
+        table = runs_page(state.archive, query) if _signed_in(request) else None
+    except InputError as err:
+        return _render(
+            request, "runs.html", status_code=422, error=state.redact(str(err)), **context
+        )
+    return _render(request, "runs.html", query=query, table=table, **context)
+
+
+@pages.get("/ui/runs/{run_id}", response_class=HTMLResponse)
+def run_page(request: Request, run_id: str) -> Response:
+    """One run: summary, bowler report, figure, downloads, scene and the rerun viewer."""
+    if not _signed_in(request):
+        return _render(request, "run.html")
+    state = _state(request)
+    from .api import cached_report
+
+    try:
+        rid = state.archive.resolve_id(run_id)
+        row = state.archive.row(rid)
+        scene = state.archive.load(rid).scene
+    except BowlrecError as err:
+        return _error_page(request, err)
+    try:
+        report, report_error = cached_report(state, rid), None
+    except BowlrecError as err:
+        report, report_error = None, state.redact(str(err))
+    base = str(request.base_url).rstrip("/")
+    return _render(
+        request,
+        "run.html",
+        title=f"Run {rid[:12]}",
+        rid=rid,
+        row=row,
+        summary=summary_cells(row),
+        report=None if report is None else report_cells(report),
+        report_error=report_error,
+        scene_json=json.dumps(scene.model_dump(mode="json"), indent=2),
+        summary_only=row.get("record") == "summary",
+        viewer_url=f"/viewer/index.html?url={base}/runs/{rid}/recording.rrd&hide_welcome_screen",
+    )
+
+
+@pages.get("/ui/compare", response_class=HTMLResponse)
+def compare_page(request: Request) -> Response:
+    """Several runs: their paths overlaid in one figure and their summaries side by side."""
+    state = _state(request)
+    ids = [i for i in request.query_params.getlist("ids") if i.strip()]
+    if not _signed_in(request):
+        return _render(request, "compare.html")
+    rows = []
+    try:
+        for given in ids:
+            rows.append(state.archive.row(state.archive.resolve_id(given.strip())))
+    except BowlrecError as err:
+        return _error_page(request, err)
+    from .api import MAX_COMPARE
+
+    too_many = len(rows) > MAX_COMPARE
+    cells = [summary_cells(r) for r in rows]
+    table = [(label, [c[i][1] for c in cells]) for i, (label, *_rest) in enumerate(SUMMARY_FIELDS)]
+    query = "&".join(f"ids={r['run_id']}" for r in rows)
+    return _render(
+        request,
+        "compare.html",
+        title="Compare",
+        rows=rows,
+        table=table,
+        figure_query=query,
+        too_many=too_many,
+        max_compare=MAX_COMPARE,
+    )
+
+
+# -- library and patterns ------------------------------------------------------------------------
+
+
+@pages.get("/ui/balls", response_class=HTMLResponse)
+def balls_page(request: Request) -> Response:
+    """The ball library: spec sheets, legality and layouts (latest version of each ball)."""
+    if not _signed_in(request):
+        return _render(request, "balls.html")
+    from .api import ball_card, catalog_layouts
+
+    state = _state(request)
+    cards = [ball_card(e) for e in state.archive.balls.list()]
+    choices = catalog_layouts()
+    return _render(
+        request,
+        "balls.html",
+        title="Ball library",
+        cards=cards,
+        layouts=[c for c in choices if c["kind"] == "layout"],
+        paps=[c for c in choices if c["kind"] == "pap"],
+    )
+
+
+@pages.get("/ui/patterns", response_class=HTMLResponse)
+def patterns_page(request: Request) -> Response:
+    """The oil patterns that ship with bowlrec, each drawn as a Kegel graph."""
+    from .api import pattern_cards
+
+    return _render(request, "patterns.html", title="Oil patterns", cards=pattern_cards())
+
+
+# -- jobs ----------------------------------------------------------------------------------------
+
+
+@pages.get("/ui/jobs", response_class=HTMLResponse)
+def jobs_page(request: Request) -> Response:
+    """Every job of the archive, and a JSON editor to submit a job or a scene."""
+    if not _signed_in(request):
+        return _render(request, "jobs.html")
+    state = _state(request)
+    seeds = [{"label": s.label, "kind": s.kind, "text": s.text()} for s in SEEDS]
+    return _render(request, "jobs.html", title="Jobs", jobs=state.jobs.list(), seeds=seeds)
+
+
+@pages.get("/ui/jobs/{job_id}", response_class=HTMLResponse)
+def job_page(request: Request, job_id: str) -> Response:
+    """A job: live progress, its results table and a swept metric against a swept parameter."""
+    if not _signed_in(request):
+        return _render(request, "job.html")
+    state = _state(request)
+    from .api import JOB_METRICS, job_axes
+
+    try:
+        status = state.jobs.get(job_id, with_runs=False)
+        axes = job_axes(state, job_id)
+    except BowlrecError as err:
+        return _error_page(request, err)
+    return _render(
+        request,
+        "job.html",
+        title=f"Job {status.name}",
+        job=status,
+        axes=axes,
+        metrics=JOB_METRICS,
+    )
