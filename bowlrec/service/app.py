@@ -1,30 +1,29 @@
 """The FastAPI application: scenes, runs and their files, the ball library and jobs.
 
-Errors are ``{"detail": "<message>"}``, one line unless noted. An error of
-:mod:`bowlrec.errors` is answered in one handler with the status of its category
-(:data:`STATUS_CODES`): 422 for an InputError (an invalid scene, ball or job spec -- one
-``field: message`` line per error, as :func:`bowlrec.spec.format_validation_error` writes them
--- a bad run filter or ball reference), 404 for a NotFoundError (unknown run, ball or job), 409
-for a ConflictError (a summary-only run whose re-recording differs from its stored summary, a
-job not cancellable or resumable, a job whose record is damaged) and a DamagedError (a stored
-run found damaged: the message names the run and its segment; `bowlrec runs repair` quarantines it), 503 with ``Retry-After`` for a
+Errors are ``{"detail": "<message>"}``, one line unless noted. An error of :mod:`bowlrec.errors`
+is answered in one handler with the status of its category (:data:`STATUS_CODES`): 422 for an
+InputError (an invalid scene, ball or job spec -- one ``field: message`` line per error, as
+:func:`bowlrec.spec.format_validation_error` writes them -- a bad run filter or ball reference),
+404 for a NotFoundError (unknown run, ball or job), 409 for a ConflictError (a summary-only run
+whose re-recording differs from its stored summary, a job not cancellable or resumable, a job
+whose record is damaged) and a DamagedError (a stored run found damaged: the message names the
+run and its segment; `bowlrec runs repair` quarantines it), 503 with ``Retry-After`` for a
 BusyError (every recording slot is busy and enough recorded runs wait), 507 for a StorageError
 (the archive could not be written, e.g. a full disk; nothing stored was lost), 501 for an
 UnavailableError (an optional format library is not installed). The HTTP layer adds 400 (a
-``Host`` that is not allowed -- DNS-rebinding protection; the message says how to allow it),
-401 (missing or wrong bearer token, and no valid session cookie), 403 (a state-changing request
-from another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's) and 413 (the request
-body exceeds the limit, ``serve --max-body-mb``). Messages never name a server path (the
-archive's root reads ``ARCHIVE``, other paths ``<path>``), and control characters in them are
-escaped. Malformed requests are 422 with the same lines (never a list): the body as a whole
-is ``request body`` (``request body: not valid JSON at line 1 column 14: Expecting ','
-delimiter``, ``request body: must be a JSON object (got an array)``, an empty body, a
-``Content-Type`` that is not JSON), a field of the body is named by its path (``name: Field
-required``), a parameter as ``query parameter limit: ...`` or ``path parameter kind: ...``; a
-body that cannot be parsed at all (nested too deeply, an integer of more than 4300 digits,
-bytes that are not UTF-8) is 400 (``request body: cannot be parsed: nested too deeply``). An
-unknown path is 404 and a method a path does not take 405, each naming the path. Bad input is
-never 5xx other than 503.
+``Host`` that is not allowed -- DNS-rebinding protection; the message says how to allow it), 401
+(missing or wrong bearer token, and no valid session cookie), 403 (a state-changing request from
+another site: ``Sec-Fetch-Site`` or ``Origin`` not this server's) and 413 (the request body
+exceeds the limit, ``serve --max-body-mb``). Messages never name a server path (the archive's
+root reads ``ARCHIVE``, other paths ``<path>``), and control characters in them are escaped.
+Malformed requests are 422 with the same lines (never a list): the body as a whole is ``request
+body`` (``request body: not valid JSON at line 1 column 14: Expecting ',' delimiter``, ``request
+body: must be a JSON object (got an array)``, an empty body, a ``Content-Type`` that is not
+JSON), a field of the body is named by its path (``name: Field required``), a parameter as
+``query parameter limit: ...`` or ``path parameter kind: ...``; a body that cannot be parsed at
+all (nested too deeply, an integer of more than 4300 digits, bytes that are not UTF-8) is 400
+(``request body: cannot be parsed: nested too deeply``). An unknown path is 404 and a method a
+path does not take 405, each naming the path. Bad input is never 5xx other than 503.
 
 Requests carrying the bearer token skip the Host and Origin checks; a browser authenticates
 with a cookie session (``POST /session``). See :mod:`bowlrec.service.security` and
