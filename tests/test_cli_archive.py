@@ -222,6 +222,9 @@ def test_replay_and_simulate_write_every_format(tmp_path: Path) -> None:
     out = _ok("replay", rid2, "-a", arch, "--rrd", str(tmp_path / "x.rrd"))
     assert "re-recorded from its stored scene" in out
     assert (tmp_path / "x.rrd").stat().st_size > 1000
+    # and plotted from it
+    _ok("plot", rid2, "-a", arch, "--out", str(tmp_path / "s.svg"))
+    assert (tmp_path / "s.svg").read_text().startswith("<?xml")
 
 
 def test_config_file_can_name_the_dask_scheduler(

@@ -421,9 +421,11 @@ def plot(
             path = Path(item)
             if path.suffix.lower() in (".json", ".yaml", ".yml"):
                 data.append(_simulated(load_scene_or_exit(path)))
-            else:
+            else:  # a summary-only run is re-recorded from its stored scene
+                from bowlrec.archive.replay import replay_data
+
                 store = _open(archive, create=False)
-                data.append(store.run_data(store.resolve_id(item)))
+                data.append(replay_data(store, store.resolve_id(item)))
         typer.echo(str(plot_runs(data, out, title=title, exaggerate=exaggerate)))
         if series is not None:
             typer.echo(str(plot_series(data[0], series)))

@@ -90,7 +90,12 @@ class ReplayCache:
                 if rid in self._runs:
                     self._runs.move_to_end(rid)
                     return self._runs[rid]
-            run = replay_data(self.archive, rid)
+            try:
+                run = replay_data(self.archive, rid)
+            except BaseException:
+                with self._mutex:
+                    self._locks.pop(rid, None)
+                raise
             with self._mutex:
                 self._runs[rid] = run
                 while len(self._runs) > self.size:
