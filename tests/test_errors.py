@@ -10,6 +10,7 @@ import json
 import pkgutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -166,13 +167,18 @@ def test_cli_errors_from_real_commands(tmp_path: Path, monkeypatch: pytest.Monke
     # not found
     missing = runner.invoke(app, ["runs", "show", "0123abcd", "-a", arch])
     assert missing.exit_code == 1 and "no run '0123abcd'" in missing.output
-    # conflict: replaying a run stored without samples
-    scene = tmp_path / "summary.json"
-    scene.write_text(json.dumps({"options": {"record": "summary"}}))
-    done = runner.invoke(app, ["simulate", str(scene), "-a", arch, "--json"])
-    rid = json.loads(done.output)["run_id"]
-    replay = runner.invoke(app, ["replay", rid, "-a", arch, "--mcap", str(tmp_path / "r.mcap")])
-    assert replay.exit_code == 2 and "options.record = 'summary'" in replay.output
+    # conflict: serving an archive whose jobs another server runs (its jobs lock is held)
+    pytest.importorskip("fastapi")
+    from bowlrec.cli import serve as _serve  # noqa: F401  (registers the command)
+    from bowlrec.service.jobs import JobManager
+
+    holder = JobManager(Archive(arch))
+    holder.open()
+    try:
+        locked = runner.invoke(app, ["serve", "-a", arch, "--port", "0"])
+    finally:
+        holder.stop()
+    assert locked.exit_code == 2 and "another bowlrec server" in locked.output
     # input: a config file that is not TOML
     config = tmp_path / "config.toml"
     config.write_text("archive = \n")
@@ -209,8 +215,8 @@ def test_service_status_of_each_category(
 
 
 def test_service_errors_from_real_requests(tmp_path: Path) -> None:
-    """A real server: an invalid filter, an unknown run and a replay of a run stored without
-    samples are answered by their category's status."""
+    """A real server: an invalid filter, an unknown run and cancelling a finished job are
+    answered by their category's status."""
     pytest.importorskip("httpx")
     from test_service import start_server
 
@@ -220,10 +226,16 @@ def test_service_errors_from_real_requests(tmp_path: Path) -> None:
             bad = client.get("/runs", params={"where": "nope>1"})
             assert bad.status_code == 422 and "unknown column 'nope'" in bad.json()["detail"]
             assert client.get("/runs/0123abcd").status_code == 404
-            scene = {"options": {"record": "summary"}}
-            rid = client.post("/runs", json=scene).json()["run_id"]
-            replay = client.get(f"/runs/{rid}/files/mcap")
-            assert replay.status_code == 409, replay.text
-            assert replay.json()["detail"].startswith(f"run {rid} cannot be replayed: ")
+            job = client.post("/jobs", json={"scenes": [{"options": {"record": "summary"}}]})
+            job_id = job.json()["job_id"]
+            deadline = time.monotonic() + 60
+            while client.get(f"/jobs/{job_id}").json()["status"] in ("queued", "running"):
+                assert time.monotonic() < deadline
+                time.sleep(0.05)
+            cancel = client.post(f"/jobs/{job_id}/cancel")
+            assert cancel.status_code == 409, cancel.text
+            assert cancel.json()["detail"] == (
+                f"job {job_id} is done; only queued or running jobs can be cancelled"
+            )
     finally:
         server.stop()

@@ -245,6 +245,8 @@ def test_the_rerun_viewer_plays_the_run(web: tuple[Any, Watch, Server]) -> None:
     page, _, _ = web
     recordings: list[Any] = []
     page.on("response", lambda r: recordings.append(r) if r.url.endswith(".rrd") else None)
+    wasm: list[Any] = []
+    page.on("response", lambda r: wasm.append(r) if r.url.endswith(".wasm") else None)
     messages: list[str] = []
     page.on("console", lambda m: messages.append(m.text))
     page.goto("/?sort=speed_mps")
@@ -259,6 +261,10 @@ def test_the_rerun_viewer_plays_the_run(web: tuple[Any, Watch, Server]) -> None:
         page.wait_for_timeout(200)
     assert recordings[0].status == 200
     assert "/recording.rrd" in recordings[0].url
+    # the viewer's wasm came from this server, as WebAssembly (every other request of the
+    # page and the viewer answered below 400: the fixture's check)
+    assert [(w.status, w.headers["content-type"]) for w in wasm] == [(200, "application/wasm")]
+    assert wasm[0].url.endswith("/viewer/re_viewer_bg.wasm")
     # the viewer decoded the whole recording (its own log says so) and opened no other URL
     while not any("has finished" in m and "recording.rrd" in m for m in messages):
         assert time.monotonic() < deadline, f"the viewer did not load the recording: {messages}"
