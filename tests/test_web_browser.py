@@ -31,7 +31,6 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not 
 
 from test_service import Server, start_server  # noqa: E402
 
-import bowlrec  # noqa: E402
 from bowlrec.archive import Archive  # noqa: E402
 from bowlrec.spec import Scene  # noqa: E402
 
@@ -436,4 +435,3 @@ def test_pages_are_served_without_external_urls(site: tuple[Server, list[str]]) 
             html = c.get(path).text
             for url in re.findall(r'(?:src|href|action)="([^"]+)"', html):
                 assert urlsplit(url).netloc in ("", urlsplit(srv.url).netloc), (path, url)
-        _ = bowlrec.__version__

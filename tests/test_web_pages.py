@@ -245,7 +245,7 @@ def test_a_ball_drawn_with_catalog_layouts(client: httpx.Client) -> None:
     body = {"name": "sheet", "spec": item.ball.model_dump(mode="json")}
     assert client.post("/balls", json=body).status_code in (200, 201)
     html = _page(client, "/ui/balls")
-    assert "sheet@1" in html and "USBC legal" in html or "not legal" in html
+    assert "sheet@1" in html and ("USBC legal" in html or "not legal" in html)
     first = client.get("/balls/sheet@1/figure.svg")
     assert first.status_code == 200
     other = client.get(

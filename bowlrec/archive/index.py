@@ -16,7 +16,7 @@ import contextlib
 import os
 import sqlite3
 import threading
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -34,6 +34,7 @@ __all__ = [
     "IndexUnreadableError",
     "create_schema",
     "open_index",
+    "cell_text",
     "count_sql",
     "select_sql",
     "transaction",
@@ -114,6 +115,25 @@ def iso_time(ns: int | None) -> str | None:
     seconds, rest = divmod(int(ns), 1_000_000_000)
     stamp = datetime.fromtimestamp(seconds, UTC).replace(microsecond=rest // 1000)
     return stamp.isoformat(timespec="microseconds")
+
+
+def cell_text(
+    row: Mapping[str, Any], column: str, scale: float = 1.0, fmt: str = "", missing: str = ""
+) -> str:
+    """A listed run's column as a table shows it: the ball as ``name@version``, the creation
+    time to the second, a float times ``scale`` in ``fmt`` (default ``.4g``), ``missing`` for
+    a value the run does not have."""
+    if column == "ball":
+        name = row.get("ball_name")
+        return "" if name is None else f"{name}@{row.get('ball_version')}"
+    value = row.get(column)
+    if value is None:
+        return missing
+    if column == "created_at":
+        return str(value)[:19].replace("T", " ")
+    if isinstance(value, float):
+        return format(scale * value, fmt or ".4g")
+    return str(value)
 
 
 def listed_row(row: sqlite3.Row) -> dict[str, Any]:

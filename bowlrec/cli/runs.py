@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
+from bowlrec.archive.index import cell_text
 from bowlrec.archive.migrate import migrate as run_migration
 from bowlrec.cli._common import interactive
 from bowlrec.sinks.registry import sink_for, sink_named
@@ -59,18 +60,9 @@ DEFAULT_LIST_LIMIT = 20
 
 
 def _cell(row: dict[str, Any], column: str, scale: float, fmt: str) -> str:
-    if column == "ball":
-        return "" if row["ball_name"] is None else f"{row['ball_name']}@{row['ball_version']}"
-    value = row[column]
     if column == "run_id":
-        return str(value)[:10]  # a unique prefix is enough for every command
-    if column == "created_at":
-        return str(value)[:19].replace("T", " ")
-    if value is None:
-        return "-"
-    if isinstance(value, float):
-        return format(scale * value, fmt or ".4g")
-    return str(value)
+        return str(row[column])[:10]  # a unique prefix is enough for every command
+    return cell_text(row, column, scale, fmt, missing="-")
 
 
 @runs_app.command("list")

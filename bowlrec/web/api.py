@@ -198,14 +198,15 @@ def ball_card(entry: Any) -> dict[str, Any]:
 
     ball = entry.ball
     bowler = isinstance(ball, BowlerBall)
+    legality = check_legality(ball) if bowler else None
     return {
         "ref": entry.ref,
         "name": entry.name,
         "added_at": entry.added_at[:19].replace("T", " "),
         "note": entry.note,
         "sheet": ball.spec_sheet() if bowler else None,
-        "legality": str(check_legality(ball)) if bowler else None,
-        "legal": check_legality(ball).is_legal if bowler else None,
+        "legality": None if legality is None else str(legality),
+        "legal": None if legality is None else legality.is_legal,
         "json": json.dumps(entry.to_json_dict()["spec"], indent=2),
     }
 
@@ -303,9 +304,8 @@ def pattern_figure(name: str, fmt: FigureFormat) -> Response:
 # -- jobs ----------------------------------------------------------------------------------------
 
 
-def job_axes(state: Any, job_id: str) -> list[str]:
-    """The numeric parameters the job sweeps (dotted scene paths), in the spec's order."""
-    spec = state.jobs.spec(job_id)
+def job_axes(spec: Any) -> list[str]:
+    """The numeric parameters a job spec sweeps (dotted scene paths), in the spec's order."""
     axes: list[str] = []
     for point in spec.points(0, min(spec.count(), 256)):
         for path, value in point.overrides.items():
@@ -314,9 +314,9 @@ def job_axes(state: Any, job_id: str) -> list[str]:
     return axes
 
 
-def _job_results(state: Any, job_id: str, limit: int) -> list[dict[str, Any]]:
-    """The job's runs in job order: index, run ID, swept values and the index metrics."""
-    spec = state.jobs.spec(job_id)
+def _job_results(state: Any, job_id: str, spec: Any, limit: int) -> list[dict[str, Any]]:
+    """The job's runs in job order: index, run ID, swept values (from its ``spec``) and the
+    index metrics."""
     status = state.jobs.get(job_id, with_runs=True)
     run_ids = (status.run_ids or [])[:limit]
     points = spec.points(0, len(run_ids))
@@ -343,7 +343,8 @@ def job_results(
 ) -> list[dict[str, Any]]:
     """The job's runs in job order (the first ``limit``): swept values, run ID, outcome and
     metrics in SI units (null for a run not archived yet or failed)."""
-    return _job_results(_state(request), job_id, limit)
+    state = _state(request)
+    return _job_results(state, job_id, state.jobs.spec(job_id), limit)
 
 
 @figures.get("/jobs/{job_id}/figure.{fmt}", response_class=Response)
@@ -359,14 +360,15 @@ def job_figure(
     from .figures import sweep_figure
 
     state = _state(request)
-    axes = job_axes(state, job_id)
+    spec = state.jobs.spec(job_id)
+    axes = job_axes(spec)
     if x not in axes:
         raise InputError(f"x: {x[:60]!r} is not swept by this job; swept: {', '.join(axes)}")
     if y not in JOB_METRICS:
         raise InputError(f"y: {y[:60]!r} is not a metric; metrics: {', '.join(JOB_METRICS)}")
     label, scale = JOB_METRICS[y]
     xs, ys = [], []
-    for r in _job_results(state, job_id, MAX_JOB_ROWS):
+    for r in _job_results(state, job_id, spec, MAX_JOB_ROWS):
         value = r["values"].get(x)
         if value is not None and r[y] is not None and math.isfinite(r[y]):
             xs.append(float(value))

@@ -19,6 +19,7 @@ from fastapi.responses import HTMLResponse, Response
 from fastapi.templating import Jinja2Templates
 
 import bowlrec
+from bowlrec.archive.index import cell_text
 from bowlrec.core.codes import OUTCOMES
 from bowlrec.errors import BowlrecError, InputError
 
@@ -141,10 +142,9 @@ templates.env.filters["fmt"] = fmt
 def summary_cells(row: dict[str, Any]) -> list[tuple[str, str]]:
     """(label, shown value) of each :data:`SUMMARY_FIELDS` entry for an index row."""
     row = dict(row)
-    if row.get("ball_name") is not None:
-        row["ball"] = f"{row['ball_name']}@{row.get('ball_version')}"
+    row["ball"] = cell_text(row, "ball")
     row["steps_rhs"] = f"{row.get('n_steps')} / {row.get('n_rhs')}"
-    row["created_at"] = str(row.get("created_at") or "")[:19].replace("T", " ")
+    row["created_at"] = cell_text(row, "created_at")
     return [(label, fmt(row.get(key), spec, scale)) for label, key, scale, spec in SUMMARY_FIELDS]
 
 
@@ -165,6 +165,7 @@ def report_cells(report: dict[str, Any]) -> list[tuple[str, str]]:
 def runs_table(request: Request) -> Response:
     """The runs table: filters, sort and pages on the server (the index only)."""
     state = _state(request)
+    signed_in = _signed_in(request)
     params = dict(request.query_params)
     context: dict[str, Any] = {
         "title": "Runs",
@@ -173,11 +174,11 @@ def runs_table(request: Request) -> Response:
         "ranges": RANGES,
         "page_sizes": PAGE_SIZES,
         "params": params,
-        "balls": [e.name for e in state.archive.balls.list()] if _signed_in(request) else [],
+        "balls": [e.name for e in state.archive.balls.list()] if signed_in else [],
     }
     try:
         query = RunsQuery.parse(params)
-        table = runs_page(state.archive, query) if _signed_in(request) else None
+        table = runs_page(state.archive, query) if signed_in else None
     except InputError as err:
         return _render(
             request, "runs.html", status_code=422, error=state.redact(str(err)), **context
@@ -304,7 +305,7 @@ def job_page(request: Request, job_id: str) -> Response:
 
     try:
         status = state.jobs.get(job_id, with_runs=False)
-        axes = job_axes(state, job_id)
+        axes = job_axes(state.jobs.spec(job_id))
     except BowlrecError as err:
         return _error_page(request, err)
     return _render(

@@ -11,7 +11,7 @@ from typing import Any
 from urllib.parse import urlencode
 
 from bowlrec.archive import Archive
-from bowlrec.archive.index import INDEX_COLUMNS
+from bowlrec.archive.index import INDEX_COLUMNS, cell_text
 from bowlrec.errors import InputError
 
 __all__ = [
@@ -190,18 +190,7 @@ class RunsPage:
 
     def cell(self, row: Mapping[str, Any], column: str, scale: float, fmt: str) -> str:
         """A cell as shown: numbers in the header's unit, the ball as ``name@version``."""
-        if column == "ball":
-            name = row.get("ball_name")
-            return "" if name is None else f"{name}@{row.get('ball_version')}"
-        if column == "created_at":
-            value = row.get("created_at")
-            return "" if value is None else str(value)[:19].replace("T", " ")
-        value = row.get(column)
-        if value is None:
-            return ""
-        if fmt and isinstance(value, int | float):
-            return format(value * scale, fmt)
-        return str(value)
+        return cell_text(row, column, scale, fmt)
 
 
 def _shown(value: Any) -> str:
