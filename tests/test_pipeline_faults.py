@@ -629,15 +629,19 @@ def _batch_reported(
     """The runs the batch reported done (its table's ok and archived rows; none without a
     table), after checking its exit against what was killed: a killed parent dies with no
     table; a batch whose pool worker died finishes (a new pool reruns the chunks in flight;
-    a chunk whose worker died twice is a failed row) or stops with an error; a batch whose
+    a chunk whose worker died twice is a failed row, and the exit status is then 1) or stops
+    with an error; a batch whose
     Dask worker died finishes (the scheduler reruns its tasks)."""
     if landed and kind == "parent":
         assert code == -signal.SIGKILL and table is None
         return set()
-    if code != 0:
+    if code != 0 and table is None:
         assert kind == "worker" and landed, f"batch exited {code}:\n{stderr}"
-        assert "error:" in stderr and table is None, stderr
+        assert "error:" in stderr, stderr
         return set()
+    if code != 0:  # finished with failed rows (a chunk's worker died twice): exit status 1
+        assert code == 1 and kind == "worker" and landed, f"batch exited {code}:\n{stderr}"
+        assert " failed (" in stderr and "died twice" in stderr, stderr
     assert table is not None, stderr
     assert [r["run_id"] or None for r in table] == [
         rid if r["run_id"] else None for rid, r in zip(expected, table, strict=True)
