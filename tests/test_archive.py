@@ -420,11 +420,12 @@ def test_a_changed_summary_value_is_detected_by_its_digest(
     assert archive.reindex() == 2 and len(archive.damaged()) == 1
 
 
-def test_a_later_minor_version_s_extra_record_group_is_read_and_checked(
+def test_a_per_run_record_group_is_read_checked_and_carried_by_compaction(
     tmp_path: Path, template_run: RunData
 ) -> None:
     """The extension rule of docs/archive-format.md: a 2.x segment with a per-run record group
-    this reader does not know (here an oil grid per run) reads, and its rows are checksummed."""
+    written by another writer (here an oil grid per run) reads, its rows are checksummed, and
+    compaction carries them into the merged segment."""
     archive = Archive(tmp_path / "a")
     builder = archive.builder()
     for i in range(2):
@@ -444,15 +445,74 @@ def test_a_later_minor_version_s_extra_record_group_is_read_and_checked(
     archive.register([info])
     _assert_same_trajectory(archive.load(f"{1:020x}").trajectory, template_run.trajectory)
     assert archive.repair()["damaged_runs"] == []
+    stored = archive.load(f"{1:020x}").records["oil_grid"]["depth_m"]
+    np.testing.assert_array_equal(stored, np.arange(6.0, 12.0).reshape(1, 2, 3))
     archive.add(template_run_with_id(template_run, f"{9:020x}"), wall_time_s=0)
-    report = archive.compact()  # would merge the two, but cannot carry the oil grids over
-    assert report["segments_left"] == 1 and info.path.exists()
+    assert archive.compact()["segments_left"] == 0 and not info.path.exists()
+    merged = archive.locate(f"{1:020x}")
+    assert merged is not None
+    with SegmentFile(merged[2]) as seg:
+        assert seg.provenance["format_version"] == "2.1"
+    assert archive.load(f"{9:020x}").records == {}
+    np.testing.assert_array_equal(archive.load(f"{1:020x}").records["oil_grid"]["depth_m"], stored)
     archive.close()  # segments read are kept open; HDF5 opens a file once per process
-    with h5py.File(info.path, "r+") as f:
+    with h5py.File(merged[2], "r+") as f:
         f["oil_grid/depth_m"][1, 0, 0] = -1.0  # a changed oil value of run 1
     archive.load(f"{0:020x}")
     with pytest.raises(RunDamagedError, match="digest mismatch"):
         archive.load(f"{1:020x}")
+
+
+def test_record_groups_are_checked_when_written(tmp_path: Path, template_run: RunData) -> None:
+    """Record groups with a reserved name, no datasets, unequal rows, or another layout than
+    the segment's other runs are refused with the run named; runs without groups stay 2.0."""
+    archive = Archive(tmp_path / "a")
+    run = template_run_with_id(template_run, f"{1:020x}")
+    for bad, match in [
+        ({"events": {"x": np.zeros(2)}}, "cannot name"),
+        ({"oil": {}}, "needs datasets"),
+        ({"oil": {"a": np.zeros(2), "b": np.zeros(3)}}, "equal first dimensions"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            archive.record(run, wall_time_s=0, records=bad)
+    builder = archive.builder()
+    builder.append(archive.record(run, wall_time_s=0, records={"oil": {"v": np.zeros(2)}}))
+    other = template_run_with_id(template_run, f"{2:020x}")
+    with pytest.raises(ValueError, match="seal the segment first"):
+        builder.append(archive.record(other, wall_time_s=0, records={"oil": {"w": np.zeros(2)}}))
+    plain = archive.add(template_run_with_id(template_run, f"{3:020x}"), wall_time_s=0)
+    with SegmentFile(plain.path) as seg:
+        assert seg.provenance["format_version"] == "2.0"
+
+
+def test_committed_v2_1_fixture_archive_reads_and_resumes(tmp_path: Path) -> None:
+    """tests/fixtures/archive-v2.1 holds two shots of a session written by format 2.1
+    (tests/fixtures/make_fixture_v21.py): each run's oil grid and session state read back, and
+    playing the session again reads both shots from the archive instead of simulating them.
+    If this fails, the on-disk format or a session shot's run ID changed: see
+    test_committed_v2_fixture_archive_still_reads."""
+    import json
+    import shutil
+
+    from bowlrec.session.records import oil_from_records, state_from_records
+    from bowlrec.session.runner import run_session
+    from bowlrec.session.spec import parse_session
+
+    expected = json.loads((HERE / "fixtures" / "archive-v2.1.json").read_text())
+    copy = shutil.copytree(HERE / "fixtures" / "archive-v2.1", tmp_path / "archive")
+    archive = Archive(copy, create=False)
+    assert archive.repair()["damaged_runs"] == []
+    for shot in expected["shots"]:
+        stored = archive.load(shot["run_id"])
+        assert stored.attrs["format_version"] == "2.1"
+        assert state_from_records(stored.records).shot == shot["shot"]
+        assert oil_from_records(stored.records["oil"]).volume_ul.sum() == pytest.approx(
+            shot["lane_oil_ul"], rel=1e-12
+        )
+    result = run_session(parse_session(expected["session"]), archive, max_shots=2)
+    assert (result.resumed, result.simulated) == (2, 0)
+    assert [{**r.to_dict(), "simulated": True} for r in result.rows] == expected["shots"]
+    assert float(result.final.volume_ul.sum()) == expected["final_oil_ul"]
 
 
 def test_bowler_preset_runs_are_indexed_by_their_pattern(tmp_path: Path) -> None:

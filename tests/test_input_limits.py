@@ -29,6 +29,7 @@ from bowlrec.core.plan import Plan
 from bowlrec.errors import JobError, SceneInputError, SpecFileError
 from bowlrec.paper import TABLE_III, Variant, paper_scene
 from bowlrec.scene_input import parse_scene
+from bowlrec.session.spec import load_session
 from bowlrec.spec import Scene, format_validation_error
 from bowlrec.spec import limits as L
 from bowlrec.spec.loading import MAX_NESTING, read_mapping
@@ -130,7 +131,9 @@ def test_every_example_scene_and_table_iii_case_stays_valid() -> None:
     assert len(scenes) >= 18
     for path in scenes:
         data = read_mapping(path)
-        if isinstance(data, dict) and data.get("format") != "bowlrec-job":
+        if isinstance(data, dict) and data.get("format") == "bowlrec-session":
+            load_session(path)
+        elif isinstance(data, dict) and data.get("format") != "bowlrec-job":
             parse_scene(data)
     for case in range(1, len(TABLE_III) + 1):
         for variant in get_args(Variant):

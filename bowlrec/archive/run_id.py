@@ -41,11 +41,15 @@ def _canonical(value: Any) -> Any:
 
 
 def canonical_plan(plan: Plan) -> dict[str, Any]:
-    """The Plan's physics-relevant fields as exact, JSON-serializable values (labels dropped)."""
+    """The Plan's physics-relevant fields as exact, JSON-serializable values (labels dropped,
+    and the optional external terms' fields at their defaults: scenes without these terms keep
+    the IDs they had before the fields existed; see ``bowlrec.core.plan.EXTERNAL_FIELDS``)."""
+    from bowlrec.core.plan import external_field_at_default
+
     return {
         f.name: _canonical(getattr(plan, f.name))
         for f in dataclasses.fields(plan)
-        if f.name != "labels"
+        if f.name != "labels" and not external_field_at_default(plan, f.name)
     }
 
 

@@ -34,6 +34,8 @@ if TYPE_CHECKING:
 
 __all__ = [
     "EVENT_FIELDS",
+    "FIXED_GROUPS",
+    "RECORDS_FORMAT_VERSION",
     "RUN_FLOAT_COLUMNS",
     "RUN_STRING_COLUMNS",
     "SEGMENT_FORMAT",
@@ -53,6 +55,11 @@ __all__ = [
 SEGMENT_FORMAT = "bowlrec-segment"
 #: major.minor: readers accept every minor of their major (docs/archive-format.md)
 SEGMENT_FORMAT_VERSION = "2.0"
+#: the minor version a segment declares when it holds per-run record groups (``RunRecord.records``)
+RECORDS_FORMAT_VERSION = "2.1"
+#: groups with a fixed place in the digest (parts 1-6); any other group with an ``offsets``
+#: dataset is a per-run record group (parts 7 and on, groups in sorted name order)
+FIXED_GROUPS = frozenset({"runs", "summary", "events", "trajectory", "torques"})
 
 #: summary metrics stored as float64 columns (NaN stands for None) and as int64 columns
 SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
@@ -117,6 +124,10 @@ class RunRecord:
     torques: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     #: events as (kind, mu, phase, t_s, x_m, y_m) tuples
     events: list[tuple[str, float, str, float, float, float]] = field(default_factory=list)
+    #: per-run record groups (format 2.1): group name -> {dataset name: array}, the arrays of a
+    #: group with equal first dimensions (the run's rows of that group), e.g. the oil grid after
+    #: a session's shot (``bowlrec.session.records``)
+    records: dict[str, dict[str, NDArray[Any]]] = field(default_factory=dict)
 
     @classmethod
     def from_run(
@@ -129,8 +140,10 @@ class RunRecord:
         ball_sha: str,
         pattern: str,
         created_at_ns: int | None = None,
+        records: dict[str, dict[str, NDArray[Any]]] | None = None,
     ) -> RunRecord:
-        """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set."""
+        """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set;
+        ``records``: its per-run record groups (see :attr:`RunRecord.records`)."""
         assert run.run_id is not None, "a run needs its content ID before it is archived"
         plan, traj = run.plan, run.trajectory
         v, w = plan.velocity0_mps, plan.omega0_radps
@@ -161,7 +174,66 @@ class RunRecord:
             else {},
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
+            records=check_records(run.run_id, records or {}),
         )
+
+
+def check_records(
+    run_id: str, records: dict[str, dict[str, NDArray[Any]]]
+) -> dict[str, dict[str, NDArray[Any]]]:
+    """``records`` as contiguous arrays, checked: group names outside the fixed groups, at least
+    one dataset per group, no dataset named ``offsets``, equal first dimensions within a group
+    (ValueError naming the run otherwise)."""
+    out: dict[str, dict[str, NDArray[Any]]] = {}
+    for group, datasets in records.items():
+        if group in FIXED_GROUPS or group.startswith("_") or "/" in group or not group:
+            raise ValueError(f"run {run_id}: {group!r} cannot name a per-run record group")
+        arrays = {k: np.ascontiguousarray(v) for k, v in datasets.items()}
+        if not arrays or "offsets" in arrays:
+            raise ValueError(
+                f"run {run_id}: record group {group!r} needs datasets other than 'offsets'"
+            )
+        rows = {a.shape[0] if a.ndim else -1 for a in arrays.values()}
+        if len(rows) != 1 or -1 in rows:
+            raise ValueError(
+                f"run {run_id}: the datasets of record group {group!r} need equal first "
+                f"dimensions (got {sorted(rows)})"
+            )
+        out[group] = arrays
+    return out
+
+
+def record_groups(records: Sequence[RunRecord]) -> dict[str, tuple[dict[str, Any], Any]]:
+    """The per-run record groups of ``records``: group -> (its datasets concatenated over the
+    runs with ``offsets``, its row matrix for the digests), groups in sorted name order. Every
+    run that has a group gives it the same dataset names, dtypes and trailing shapes (a
+    ValueError names the first run that does not)."""
+    names = sorted({g for r in records for g in r.records})
+    out: dict[str, tuple[dict[str, Any], Any]] = {}
+    for group in names:
+        having = [r for r in records if group in r.records]
+        first = having[0].records[group]
+        layout = {k: (v.dtype, v.shape[1:]) for k, v in first.items()}
+        for r in having[1:]:
+            got = {k: (v.dtype, v.shape[1:]) for k, v in r.records[group].items()}
+            if got != layout:
+                raise ValueError(
+                    f"run {r.run_id}: record group {group!r} has datasets {got}, the segment's "
+                    f"first run has {layout}; seal the segment first"
+                )
+        lengths = [
+            int(next(iter(r.records[group].values())).shape[0]) if group in r.records else 0
+            for r in records
+        ]
+        offsets = np.zeros(len(records) + 1, dtype=np.int64)
+        np.cumsum(lengths, out=offsets[1:])
+        datasets: dict[str, Any] = {
+            k: np.concatenate([r.records[group][k] for r in having]) for k in sorted(first)
+        }
+        matrix = row_matrix([datasets[k] for k in sorted(first)], int(offsets[-1]))
+        datasets["offsets"] = offsets
+        out[group] = (datasets, matrix)
+    return out
 
 
 @dataclass(frozen=True)
@@ -280,6 +352,17 @@ class SegmentBuilder:
                     f"run {record.run_id}: torque terms {list(record.torques)} differ from the "
                     f"segment's {terms}; seal the segment first"
                 )
+        for group, datasets in record.records.items():
+            other = next((r for r in self.records if group in r.records), None)
+            if other is None:
+                continue
+            layout = {k: (v.dtype, v.shape[1:]) for k, v in other.records[group].items()}
+            got = {k: (v.dtype, v.shape[1:]) for k, v in datasets.items()}
+            if got != layout:
+                raise ValueError(
+                    f"run {record.run_id}: record group {group!r} has datasets {got}, the "
+                    f"segment's runs have {layout}; seal the segment first"
+                )
         self._ids.add(record.run_id)
         self.records.append(record)
         return True
@@ -317,6 +400,7 @@ class SegmentBuilder:
             (trajectory, smp_m),
             (torques, tq_m),
             terms,
+            record_groups(recs),
         )
 
     def _events(self) -> dict[str, NDArray[Any]]:
@@ -393,7 +477,7 @@ def seal_columns(
     info = {
         **provenance,
         "format": SEGMENT_FORMAT,
-        "format_version": SEGMENT_FORMAT_VERSION,
+        "format_version": format_version_of(columns),
         "segment_id": segment_id,
         "n_runs": len(run_ids),
     }
@@ -499,11 +583,14 @@ def _with_digests(
     samples: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
     torques: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
     terms: Sequence[str],
+    records: dict[str, tuple[dict[str, Any], Any]] | None = None,
 ) -> dict[str, Any]:
     """A segment's datasets by group, each run's digest computed (see :func:`run_digest`).
 
     ``samples`` and ``torques``: each group's datasets (with ``offsets``) and its row matrix
-    (:func:`row_matrix`; any empty matrix when no run has rows)."""
+    (:func:`row_matrix`; any empty matrix when no run has rows); ``records``: the per-run record
+    groups (:func:`record_groups`), which join each digest after the torques."""
+    records = records or {}
     n = int(runs["run_id"].shape[0])
     scene_bytes, scene_offsets = scenes
     message_bytes, message_offsets = messages
@@ -520,6 +607,7 @@ def _with_digests(
             ev_m[ev_off[i] : ev_off[i + 1]].data,
             smp_m[smp_off[i] : smp_off[i + 1]].data,
             tq_m[tq_off[i] : tq_off[i + 1]].data,
+            *(m[d["offsets"][i] : d["offsets"][i + 1]].data for d, m in records.values()),
         )
         for i in range(n)
     ]
@@ -534,8 +622,16 @@ def _with_digests(
         "events": events,
         "trajectory": samples[0],
         "torques": torques[0],
+        **{group: datasets for group, (datasets, _) in records.items()},
         "_terms": np.array([t.encode() for t in terms], dtype="S64"),
     }
+
+
+def format_version_of(columns: dict[str, Any]) -> str:
+    """The segment format version of a segment's datasets: 2.1 when they hold per-run record
+    groups, else 2.0 (a segment without them is exactly a 2.0 segment)."""
+    extra = any(g not in FIXED_GROUPS and not g.startswith("_") for g in columns)
+    return RECORDS_FORMAT_VERSION if extra else SEGMENT_FORMAT_VERSION
 
 
 def _fixed(values: list[bytes]) -> NDArray[np.bytes_]:

@@ -28,6 +28,7 @@ from bowlrec.sinks.units import DIMENSIONLESS, units_for
 
 from .segment import (
     EVENT_FIELDS,
+    FIXED_GROUPS,
     RUN_FLOAT_COLUMNS,
     RUN_STRING_COLUMNS,
     SEGMENT_FORMAT,
@@ -38,6 +39,7 @@ from .segment import (
     RunRecord,
     event_columns,
     fixed_columns,
+    format_version_of,
     row_matrix,
     run_digest,
     sample_columns,
@@ -66,11 +68,12 @@ _MEANINGS = {
     "n_steps": "accepted integrator steps (count)",
     "n_rhs": "right-hand-side evaluations (count)",
     "n_events": "events (count)",
+    "state_json": "a session's state after the shot, compact JSON (UTF-8 bytes)",
 }
 
 
 #: groups whose place in the digest is fixed (parts 1-6)
-_KNOWN_GROUPS = {"runs", "summary", "events", "trajectory", "torques"}
+_KNOWN_GROUPS = FIXED_GROUPS
 #: per-run datasets of variable length (bytes concatenated over the runs, with offsets)
 _VARIABLE = ("scene_json", "scene_json_offsets", "message", "message_offsets")
 
@@ -110,12 +113,13 @@ def write_segment(
         h5py.File(tmp, "w", locking=False) as f,
     ):
         f.attrs["format"] = SEGMENT_FORMAT
-        f.attrs["format_version"] = SEGMENT_FORMAT_VERSION
+        f.attrs["format_version"] = format_version_of(columns)
         f.attrs["segment_id"] = segment_id
         f.attrs["n_runs"] = n
         for key, value in provenance.items():
             f.attrs[key] = value
-        for group_name in ("runs", "summary", "events", "trajectory", "torques"):
+        record_groups = sorted(g for g in columns if g not in FIXED_GROUPS and g[0] != "_")
+        for group_name in ("runs", "summary", "events", "trajectory", "torques", *record_groups):
             group = f.create_group(group_name)
             for name, arr in columns[group_name].items():
                 data = np.asarray(arr)
@@ -176,7 +180,8 @@ class _RowBytes:
     events: dict[str, NDArray[Any]]
     samples: dict[str, NDArray[Any]]
     torques: dict[str, NDArray[Any]]
-    extra: list[memoryview]
+    #: per-run record groups: group -> {dataset: the run's rows}
+    records: dict[str, dict[str, NDArray[Any]]]
 
 
 @dataclass(frozen=True)
@@ -192,6 +197,8 @@ class StoredRecord:
     attrs: dict[str, Any]
     #: the run's per-run columns (RUN_STRING_COLUMNS, RUN_FLOAT_COLUMNS, created_at_ns)
     columns: dict[str, Any]
+    #: the run's per-run record groups (format 2.1): group -> {dataset: the run's rows}
+    records: dict[str, dict[str, NDArray[Any]]]
 
     def to_record(self) -> RunRecord:
         """The run as a segment record again (to rewrite it into another segment)."""
@@ -216,7 +223,14 @@ class StoredRecord:
             trajectory={k: getattr(traj, k) for k in TRAJECTORY_FIELDS} if traj.n_samples else {},
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
+            records={g: dict(d) for g, d in self.records.items() if _has_rows(d)},
         )
+
+
+def _has_rows(datasets: dict[str, NDArray[Any]]) -> bool:
+    """Whether a run's slice of a record group holds any row (a run without the group reads
+    as zero rows)."""
+    return bool(datasets) and int(next(iter(datasets.values())).shape[0]) > 0
 
 
 def _text(value: Any) -> str:
@@ -363,7 +377,7 @@ class SegmentFile:
                 events={k: ds(f"events/{k}")[e0:e1] for k in EVENT_FIELDS},
                 samples={k: ds(f"trajectory/{k}")[t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
                 torques={t: ds(f"torques/{t}")[q0:q1] for t in self._terms} if q1 > q0 else {},
-                extra=[m[a:b].data for m, (a, b) in self._extra_rows(row)],
+                records=self._record_rows(row),
             )
         except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
             raise RunDamagedError(run_id, self.segment_id, f"unreadable: {err}") from None
@@ -381,7 +395,13 @@ class SegmentFile:
             row_matrix(event_columns(d.events), n_events).data,
             row_matrix(sample_columns(d.samples), n_samples).data,
             row_matrix(list(d.torques.values()), n_torques).data,
-            *d.extra,
+            *(
+                row_matrix(
+                    [rows[k] for k in sorted(rows)],
+                    int(next(iter(rows.values())).shape[0]) if rows else 0,
+                ).data
+                for _, rows in sorted(d.records.items())
+            ),
         )
 
     def computed_digest(self, row: int) -> bytes:
@@ -395,7 +415,7 @@ class SegmentFile:
         if self._digest(d) != bytes(d.fixed["runs"]["digest"][0]):
             raise RunDamagedError(d.run_id, self.segment_id, "digest mismatch")
         return self._record(
-            row, d.run_id, d.fixed, d.scene, d.message, d.events, d.samples, d.torques
+            row, d.run_id, d.fixed, d.scene, d.message, d.events, d.samples, d.torques, d.records
         )
 
     def _record(
@@ -408,6 +428,7 @@ class SegmentFile:
         events: dict[str, NDArray[Any]],
         samples: dict[str, NDArray[Any]],
         torques: dict[str, NDArray[Any]],
+        records: dict[str, dict[str, NDArray[Any]]],
     ) -> StoredRecord:
         r, s = fixed["runs"], fixed["summary"]
         values: dict[str, Any] = {"outcome": _text(s["outcome"][0]), "message": message.decode()}
@@ -444,7 +465,9 @@ class SegmentFile:
         columns: dict[str, Any] = {k: _text(r[k][0]) for k in RUN_STRING_COLUMNS}
         columns.update({k: float(r[k][0]) for k in RUN_FLOAT_COLUMNS})
         columns["created_at_ns"] = int(r["created_at_ns"][0])
-        return StoredRecord(run_id, self.segment_id, row, scene.decode(), traj, attrs, columns)
+        return StoredRecord(
+            run_id, self.segment_id, row, scene.decode(), traj, attrs, columns, records
+        )
 
     # -- every run -----------------------------------------------------------------------------
 
@@ -504,21 +527,29 @@ class SegmentFile:
         return healthy, damaged
 
     def unknown_groups(self) -> list[str]:
-        """Groups this reader does not know (a later 2.x version's additions): it reads and
-        checks their rows but cannot rewrite them into another segment."""
-        return sorted(g for g in self._f if g not in _KNOWN_GROUPS)
+        """Groups this reader does not know: neither a fixed group nor a per-run record group
+        (a group with ``offsets``). It cannot rewrite them into another segment."""
+        return sorted(
+            g for g in self._f if g not in _KNOWN_GROUPS and g not in self._extra_groups()
+        )
 
     def _extra_groups(self) -> list[str]:
-        """Per-run record groups this reader does not know (added by a later 2.x minor)."""
-        return sorted(g for g in self._f if g not in _KNOWN_GROUPS and "offsets" in self._f[g])
+        """The per-run record groups (format 2.1 and on): groups beyond the fixed ones that
+        have an ``offsets`` dataset, in sorted name order."""
+        return sorted(
+            g
+            for g in self._f
+            if g not in _KNOWN_GROUPS
+            and isinstance(self._f[g], h5py.Group)
+            and "offsets" in self._f[g]
+        )
 
-    def _extra_rows(self, row: int) -> list[tuple[NDArray[np.uint8], tuple[int, int]]]:
-        out = []
+    def _record_rows(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
+        """Run ``row``'s rows of every per-run record group (zero rows where it has none)."""
+        out = {}
         for g in self._extra_groups():
             a, b = self._span(g, row)
-            names = sorted(k for k in self._f[g] if k != "offsets")
-            m = row_matrix([self._f[g][k][a:b] for k in names], b - a)
-            out.append((m, (0, b - a)))
+            out[g] = {k: self._ds(f"{g}/{k}")[a:b] for k in sorted(self._f[g]) if k != "offsets"}
         return out
 
     def _matrix(self, group: str, names: Any) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:

@@ -296,8 +296,10 @@ class Archive:
         ball_ref: str | None = None,
         solver: str = "",
         created_at_ns: int | None = None,
+        records: dict[str, dict[str, Any]] | None = None,
     ) -> RunRecord:
-        """A finished run as a segment record (``ball_ref`` None: looked up by spec)."""
+        """A finished run as a segment record (``ball_ref`` None: looked up by spec;
+        ``records``: its per-run record groups, see :attr:`~.segment.RunRecord.records`)."""
         from .segment import RunRecord
 
         sha = self._ball_sha(run.scene.ball)
@@ -311,6 +313,7 @@ class Archive:
             ball_sha=sha,
             pattern=pattern_label(run.scene),
             created_at_ns=created_at_ns,
+            records=records,
         )
 
     def _library_refs(self) -> dict[str, str]:
@@ -401,12 +404,14 @@ class Archive:
         ball_ref: str | None = None,
         solver: str = "",
         durable: bool = True,
+        records: dict[str, dict[str, Any]] | None = None,
     ) -> AddResult:
         """Store a finished run as a segment of one run (idempotent: an already archived run
         ID writes nothing).
 
         ``ball_ref`` ("name@version") names the library ball the scene used; when None the
-        library is searched for a spec equal to the scene's ball.
+        library is searched for a spec equal to the scene's ball. ``records``: the run's
+        per-run record groups (archive format 2.1; e.g. a session shot's oil grid).
         """
         from bowlrec.sinks.common import RunData as _RunData
 
@@ -416,7 +421,11 @@ class Archive:
         if found is not None:
             return AddResult(rid, found[2], False, run.trajectory)
         builder = self.builder()
-        builder.append(self.record(run, wall_time_s=wall_time_s, ball_ref=ball_ref, solver=solver))
+        builder.append(
+            self.record(
+                run, wall_time_s=wall_time_s, ball_ref=ball_ref, solver=solver, records=records
+            )
+        )
         info = self.seal(builder, durable=durable)
         self.register([info])
         found = self.locate(rid)
@@ -703,7 +712,10 @@ class Archive:
                 "scene_json": rec.scene_json,
             }
         )
-        return StoredRun(run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs)
+        records = {g: d for g, d in rec.records.items() if d and len(next(iter(d.values())))}
+        return StoredRun(
+            run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs, records=records
+        )
 
     def _segment(self, path: Path) -> Any:
         """The segment at ``path``, opened once and kept among the 8 most recently read

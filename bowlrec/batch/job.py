@@ -453,6 +453,10 @@ def load_job(path: str | Path) -> JobSpec:
         data = read_mapping(p)
     except (OSError, ValueError) as err:
         raise JobError(f"{p}: {err}") from err
+    if isinstance(data, dict) and data.get("format") == "bowlrec-session":
+        raise JobError(
+            f"{p}: a session file (format bowlrec-session): play it with `bowlrec session {p}`"
+        )
     try:
         return JobSpec.model_validate(data)
     except ValidationError as err:

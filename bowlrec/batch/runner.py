@@ -184,8 +184,10 @@ class _Workers:
 
 
 @contextmanager
-def _executor(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
-    """A dask client's executor, this process, or a local process pool."""
+def worker_pool(workers: int | None, scheduler: str | None) -> Iterator[_Workers]:
+    """A dask client's executor (``scheduler``: its address), this process (``workers`` 0), or
+    a local process pool of ``workers`` processes (None: one per core) whose workers fork from
+    a server that has the kernels loaded; what jobs and sessions (``bowlrec session``) run on."""
     if scheduler is not None:
         try:
             from distributed import Client
@@ -571,5 +573,5 @@ def _maybe_executor(
     if executor is not None:
         yield _Workers(executor, max(1, workers or os.cpu_count() or 1))
         return
-    with _executor(workers, scheduler) as pool:
+    with worker_pool(workers, scheduler) as pool:
         yield pool

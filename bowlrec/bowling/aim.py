@@ -39,6 +39,7 @@ from typing import Any, Literal, get_args
 import numpy as np
 
 from bowlrec.errors import AimError, SpecError
+from bowlrec.spec import Lane
 
 from .delivery import BowlerDelivery
 from .pocket import POCKET, Pocket
@@ -192,9 +193,11 @@ class _Spent(AimError):
 class _Search:
     """Evaluations with their bookkeeping: the shot, every shot tried, the closest."""
 
-    def __init__(self, scene: BowlerScene, vary: tuple[str, ...], pocket: Pocket) -> None:
+    def __init__(
+        self, scene: BowlerScene, vary: tuple[str, ...], pocket: Pocket, lane: Lane | None = None
+    ) -> None:
         self.scene, self.vary, self.pocket = scene, vary, pocket
-        self.shot = Shot(scene)
+        self.shot = Shot(scene, lane=lane)
         self.with_angle = len(vary) == 2
         self.tried: list[tuple[dict[str, float], ShotResult]] = []
         self.attempts = 0
@@ -341,11 +344,15 @@ def _solve(search: _Search) -> bool:
 
 
 def aim(
-    scene: BowlerScene, vary: Sequence[str] = ("target",), pocket: Pocket = POCKET
+    scene: BowlerScene,
+    vary: Sequence[str] = ("target",),
+    pocket: Pocket = POCKET,
+    lane: Lane | None = None,
 ) -> AimResult:
     """The shot of ``scene`` that enters ``pocket``, varying ``vary`` (one or two names of
-    :data:`VARIABLES`; module docstring). Raises AimError for a bad request; an unreachable
-    pocket is a result with ``found`` False and the closest shot tried."""
+    :data:`VARIABLES`; module docstring), on ``lane`` (a physical lane; default the scene's
+    own, its pattern's friction for its ball). Raises AimError for a bad request; an
+    unreachable pocket is a result with ``found`` False and the closest shot tried."""
     names = tuple(vary)
     unknown = [n for n in names if n not in VARIABLES]
     if unknown or not 1 <= len(names) <= 2 or len(set(names)) != len(names):
@@ -355,7 +362,7 @@ def aim(
     if set(names) == {"target", "launch"}:
         raise AimError("vary = ['target', 'launch']: the target decides the launch angle")
     t0 = time.perf_counter()
-    search = _Search(scene, names, pocket)
+    search = _Search(scene, names, pocket, lane)
     try:
         found = _solve(search)
     except _Spent:

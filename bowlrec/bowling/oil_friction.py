@@ -12,6 +12,11 @@ mapping is a two-level model with an optional linear ramp, every number a parame
          = (h - h0) / (h1 - h0)   in between (h0 = dry_at_or_below_um, h1 = oiled_at_or_above_um)
     mu(h, ball) = (1 - s(h)) D mu_dry + s(h) O mu_oil
 
+or, with ``ramp: "power"``, s(h) = ((h - h0) / (h1 - h0)) ** ramp_exponent in between: the
+browser simulator "Fresh Oil"'s mu = mu_dry - (mu_dry - mu_oil) f^0.40 with f = h / h1 for
+h0 = 0 (a thin film does most of the work; ``docs/oil-transition.md``). A film worn below h1
+then raises the friction, which a two-level map (h0 = h1) never does.
+
 with D = dry cover factor x dry surface factor and O = oil cover factor x oil surface factor of
 the ball (dimensionless). **The ball's factors** (``cover_model: "ranked"``, the default) come
 from a sourced ranking of coverstocks and sanding grits with assumed numbers
@@ -71,7 +76,9 @@ __all__ = [
     "CoverModel",
     "OilFrictionMapping",
     "Surface",
+    "Ramp",
     "film_thickness_um",
+    "grid_friction",
     "mirror_friction",
     "mu_of_film",
     "oiled_fraction",
@@ -83,6 +90,8 @@ Array = NDArray[np.float64]
 
 #: "ranked": the sourced ranking's cover and surface factors; "none": every factor 1
 CoverModel = Literal["ranked", "none"]
+#: shape of s(h) between the dry and the oiled film: "linear" or "power" (module docstring)
+Ramp = Literal["linear", "power"]
 
 _USBC_WIDTH_M = LANE_WIDTH_IN * IN_M
 _LANE_LENGTH_M = LANE_LENGTH_FT * FT_M
@@ -106,7 +115,17 @@ class OilFrictionMapping(SpecModel):
     oiled_at_or_above_um: NonNegativeFloat = Field(
         default=0.0,
         description="Film thickness (µm) from which the lane is fully oiled (>= the dry one); "
-        "mu is linear in between.",
+        "mu follows the ramp in between.",
+    )
+    ramp: Ramp = Field(
+        default="linear",
+        description="Shape of the oiled fraction between the dry and the oiled film: 'linear', "
+        "or 'power' ((h - h0) / (h1 - h0)) ** ramp_exponent (Fresh Oil's f^0.40).",
+    )
+    ramp_exponent: PositiveFloat = Field(
+        default=0.4,
+        le=10.0,
+        description="Exponent of the 'power' ramp, in (0, 10] (Fresh Oil: 0.40; 1 is linear).",
     )
     cover_model: CoverModel = Field(
         default="ranked",
@@ -206,7 +225,10 @@ def oiled_fraction(film_um: ArrayLike, mapping: OilFrictionMapping) -> Array:
     h0, h1 = mapping.dry_at_or_below_um, mapping.oiled_at_or_above_um
     if h1 == h0:
         return (h > h0).astype(np.float64)
-    return np.clip((h - h0) / (h1 - h0), 0.0, 1.0)
+    s = np.clip((h - h0) / (h1 - h0), 0.0, 1.0)
+    if mapping.ramp == "power":
+        return np.asarray(s**mapping.ramp_exponent, dtype=np.float64)
+    return s
 
 
 def mu_of_film(
@@ -261,7 +283,57 @@ def pattern_friction(
     for the others). Use the same width for the Lane (see :func:`pattern_lane`). ValueError
     for a grit outside the surface model's range."""
     m = mapping or OilFrictionMapping()
-    grid = oil_grid(pattern)
+    return _friction_of_grid(
+        oil_grid(pattern),
+        lane_width_m,
+        length_m,
+        coverstock,
+        surface,
+        m,
+        source=f"oil pattern {pattern.name!r}, {_mapping_text(m, coverstock, surface)}",
+        name=pattern.name,
+    )
+
+
+def grid_friction(
+    grid: OilGrid,
+    *,
+    lane_width_m: float,
+    length_m: float = _LANE_LENGTH_M,
+    coverstock: Coverstock | None = None,
+    surface: Surface | None = None,
+    mapping: OilFrictionMapping | None = None,
+    name: str = "oil grid",
+) -> GridFriction:
+    """The friction map of any oil grid (e.g. a lane worn by a session's shots,
+    :mod:`bowlrec.bowling.oil_transfer`) as :func:`pattern_friction` builds it for a pattern's
+    grid: same mapping, same treatment of the lane's edges, the same minimal grid. ``name``
+    labels the map (``GridFriction.pattern`` and its source)."""
+    m = mapping or OilFrictionMapping()
+    return _friction_of_grid(
+        grid,
+        lane_width_m,
+        length_m,
+        coverstock,
+        surface,
+        m,
+        source=f"oil grid {name!r}, {_mapping_text(m, coverstock, surface)}",
+        name=name,
+    )
+
+
+def _friction_of_grid(
+    grid: OilGrid,
+    lane_width_m: float,
+    length_m: float,
+    coverstock: Coverstock | None,
+    surface: Surface | None,
+    m: OilFrictionMapping,
+    *,
+    source: str,
+    name: str,
+) -> GridFriction:
+    """The minimal GridFriction of ``grid`` under ``m`` (module docstring)."""
     film = np.pad(film_thickness_um(grid, lane_width_m), 1)  # dry all around the grid
     mu = mu_of_film(film, m, coverstock, surface)
     xe, xs = _clamped(grid.x_edges_ft * FT_M, 0.0, length_m)
@@ -271,8 +343,8 @@ def pattern_friction(
         x_edges_m=g.x_edges_m.tolist(),
         y_edges_m=g.y_edges_m.tolist(),
         mu=g.mu.tolist(),
-        source=f"oil pattern {pattern.name!r}, {_mapping_text(m, coverstock, surface)}",
-        pattern=pattern.name,
+        source=source,
+        pattern=name,
     )
 
 
@@ -287,6 +359,8 @@ def _mapping_text(
         text += " (no cover model)"
     if m.oiled_at_or_above_um > 0:
         text += f", ramp {fmt(m.dry_at_or_below_um)}-{fmt(m.oiled_at_or_above_um)} um"
+        if m.ramp == "power":
+            text += f" (power {fmt(m.ramp_exponent)})"
     return text
 
 

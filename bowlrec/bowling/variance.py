@@ -38,11 +38,13 @@ from pydantic import Field
 
 from bowlrec.spec._base import NonNegativeFloat, SpecModel, fmt
 
+from .delivery import BowlerDelivery
 from .pocket import POCKET, Pocket
 from .scene import BowlerScene
 from .shot import Shot
 
 __all__ = [
+    "draw_releases",
     "PRESETS",
     "ReleaseScatter",
     "ScatterResult",
@@ -157,7 +159,32 @@ def release_scatter(
     shot = Shot(scene)
     d = scene.delivery
     launch = shot.launch_angle(d)
-    rng = np.random.default_rng(seed)
+    repeats = draw_releases(d, launch, scatter, np.random.default_rng(seed), n)
+    plans = [shot.plan(repeat.to_physical(scene.lane)) for repeat in repeats]
+    outcomes, entry_board, entry_angle = _entries(plans, scene, parallel)
+    return ScatterResult(
+        n=n,
+        seed=seed,
+        scatter=scatter,
+        pocket=pocket,
+        entry_board=entry_board,
+        entry_angle_deg=entry_angle,
+        outcomes=outcomes,
+        seconds=time.perf_counter() - t0,
+    )
+
+
+def draw_releases(
+    d: BowlerDelivery,
+    launch_angle_deg: float,
+    scatter: ReleaseScatter,
+    rng: np.random.Generator,
+    n: int,
+) -> list[BowlerDelivery]:
+    """``n`` releases of ``d`` launched at ``launch_angle_deg`` (deg) with ``scatter``'s normal
+    spread drawn from ``rng`` (speed and rev rate kept positive, the laydown on the lane, the
+    axis angles in range; the target at the arrows dropped: the launch angle is given)."""
+    launch = launch_angle_deg
     draws = {
         name: getattr(d, name) + getattr(scatter, name) * rng.standard_normal(n)
         for name in ("speed_mph", "rev_rate_rpm", "axis_rotation_deg", "axis_tilt_deg")
@@ -170,24 +197,13 @@ def release_scatter(
     draws["rev_rate_rpm"] = np.maximum(draws["rev_rate_rpm"], 1e-3)
     base = d.model_dump()
     base["target_board_at_arrows"] = None
-    plans = []
+    repeats = []
     for i in range(n):
         fields = {**base, **{k: float(v[i]) for k, v in draws.items()}}
         fields["axis_rotation_deg"] = max(-180.0, min(180.0, fields["axis_rotation_deg"]))
         fields["axis_tilt_deg"] = max(-90.0, min(90.0, fields["axis_tilt_deg"]))
-        repeat = type(d).model_validate(fields)
-        plans.append(shot.plan(repeat.to_physical(scene.lane)))
-    outcomes, entry_board, entry_angle = _entries(plans, scene, parallel)
-    return ScatterResult(
-        n=n,
-        seed=seed,
-        scatter=scatter,
-        pocket=pocket,
-        entry_board=entry_board,
-        entry_angle_deg=entry_angle,
-        outcomes=outcomes,
-        seconds=time.perf_counter() - t0,
-    )
+        repeats.append(type(d).model_validate(fields))
+    return repeats
 
 
 def _entries(

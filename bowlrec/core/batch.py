@@ -2,7 +2,8 @@
 
 Plans are packed into flat arrays (ragged friction grids with offsets) so the loop over
 deliveries runs without Python objects; each delivery picks its kernel once (the closed form for
-uniform balls, the integrator otherwise).
+uniform balls on a flat lane without external terms, the integrator otherwise, which computes
+the external terms a delivery's parameters switch on).
 """
 
 from __future__ import annotations
@@ -62,13 +63,16 @@ def pack_plans(plans: Sequence[Plan]) -> PackedPlans:
     x_off = np.zeros(n + 1, dtype=np.int64)
     y_off = np.zeros(n + 1, dtype=np.int64)
     mu_off = np.zeros(n + 1, dtype=np.int64)
-    par = np.empty((n, kernel_params(plans[0]).shape[0]))
+    pars = [kernel_params(p) for p in plans]
+    # one width for all rows: the longest (a height profile adds its spline); shorter rows are
+    # padded with zeros the kernels do not read
+    par = np.zeros((n, max(q.shape[0] for q in pars)))
     y0 = np.empty((n, N_STATE))
     lane = np.empty((n, 3))
     opts = np.empty((n, 5))
     flags = np.zeros((n, 2), dtype=np.bool_)
     for i, p in enumerate(plans):
-        par[i] = kernel_params(p)
+        par[i, : pars[i].shape[0]] = pars[i]
         y0[i] = initial_state(p)
         xe = np.asarray(p.friction_x_edges_m, dtype=np.float64)
         ye = np.asarray(p.friction_y_edges_m, dtype=np.float64)

@@ -107,3 +107,9 @@ RECORD_RATE = 2  #: samples at a fixed rate from the dense output (and every eve
 # ---- where rolling starts (Plan.slide_to_roll) ----
 SLIDE_TO_ROLL_EXACT = 0  #: rolling starts where the slip is exactly zero (root of the slip)
 SLIDE_TO_ROLL_THRESHOLD = 1  #: the paper's rule: rolling starts once |slip| < slip_threshold
+
+# ---- the Magnus lift coefficient's model (Plan.lift_model) ----
+LIFT_NONE = 0  #: no Magnus lift
+#: C_L(S) of Sawicki, Hubbard & Stronge (2003): 1.5 S for S <= 0.1, 0.09 + 0.6 S above
+LIFT_SAWICKI = 1
+LIFT_MODELS = ("none", "sawicki2003")  #: names by code

@@ -18,7 +18,8 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
     inertia_alpha (n, 6, 3), torques (n, 6, 3)). The last two are filled only when
     ``record_terms``: inertia_alpha[k] = I_k alpha (the left-hand-side terms applied to the
     solution) and torques[k] the right-hand-side terms, in the order of ``terms.INERTIA_TERMS``
-    and ``terms.TORQUE_TERMS``; for every sample sum(inertia_alpha) == sum(torques).
+    and ``terms.TORQUE_TERMS`` followed by ``terms.EXTERNAL_TERM`` (torques has 7 rows); for
+    every sample sum(inertia_alpha) == sum(torques).
     """
     n = rec.shape[0]
     normal = np.empty(n)
@@ -28,7 +29,7 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
     alpha = np.empty((n, 3))
     m_terms = 6 if record_terms else 0
     inertia_alpha = np.zeros((n if record_terms else 0, m_terms, 3))
-    torques = np.zeros((n if record_terms else 0, m_terms, 3))
+    torques = np.zeros((n if record_terms else 0, m_terms + 1 if record_terms else 0, 3))
     y = np.empty(N_STATE)
     for k in range(n):
         for i in range(N_STATE):
@@ -61,5 +62,6 @@ def derive_samples(rec, par, record_terms):  # type: ignore[no-untyped-def]
             mats, taus, al = equation_terms(y, par, phase, mu, ux, uy)
             for j in range(6):
                 inertia_alpha[k, j] = matvec(mats[j], al)
+            for j in range(7):
                 torques[k, j] = taus[j]
     return normal, friction, slips, energy, alpha, inertia_alpha, torques

@@ -11,7 +11,13 @@ State vector ``y`` (SI):
 
 Parameters ``par`` (see :func:`pack_params`): ball radius R, gravity g, the principal moments per
 unit mass k_i^2 (m^2), r_Delta in the body frame (m), and two flags that switch off terms that are
-exactly zero for the scene (scalar inertia: no I_dev / tau_dev; zero offset: no r_Delta terms).
+exactly zero for the scene (scalar inertia: no I_dev / tau_dev; zero offset: no r_Delta terms);
+then the optional external terms (none in the paper) and their flag P_EXT: air drag, rolling
+resistance and Magnus lift, forces e at the geometric center, and the lane topography's lateral
+gravity g_h at the center of mass (:func:`external_accel`). With P_EXT = 0 the right-hand side
+computes none of them (``roll_accel`` and ``_slide_accel_frame`` branch to their external
+versions only when it is set), so flat-lane scenes give the same bits with or without these
+parameters.
 
 Sliding (paper Eqs. (6), (A8)-(A12)): with rho = r_Delta + R_con and mu_vec = (mu u_x, mu u_y, 1)
 (u the unit slip direction), the torque equation per unit mass is
@@ -28,8 +34,13 @@ Rolling (Eqs. (7), (B1)-(B7)): (I + |rho|^2 1 - rho rho^T) alpha = (I_dev w) x w
 + tau_DeltaDelta^r, the center accelerates at R_con x alpha and the contact force per unit mass is
 F/M = g z + rho x alpha + (w x r_Delta) x w (the paper's Eq. (B3) prints -g n: a sign slip).
 
+External terms (per unit mass; e at the geometric center, g_h = (0, -g dz/dy, 0) at the center
+of mass): sliding, n = g - e_z + a_alpha + a_w and the torque gains r_Delta x e; rolling, the
+torque gains -R_con x e - rho x g_h and F/M gains -e - g_h; in both the center accelerates by
+e_h + g_h more (see ``_slide_accel_external`` and ``_roll_accel_external``).
+
 ``bowlrec.core.terms`` computes every term separately; tests check both against a direct
-Newton-Euler solve.
+Newton-Euler solve (tests/test_physics_newton_euler.py, tests/test_external_terms.py).
 """
 
 from __future__ import annotations
@@ -39,13 +50,34 @@ import math
 import numpy as np
 from numba import njit
 
-from .codes import PHASE_LAYER, PHASE_ROLL
+from .codes import LIFT_SAWICKI, PHASE_LAYER, PHASE_ROLL
 from .vec import NO_NRT, cross, quat_matrix, rotate, solve3, world_inertia
 
-(P_R, P_G, P_K1, P_K2, P_K3, P_RDX, P_RDY, P_RDZ, P_SCALAR, P_OFFSET, P_SLAYER, P_QWEIGHT) = range(
-    12
-)
-N_PAR = 12
+(
+    P_R,
+    P_G,
+    P_K1,
+    P_K2,
+    P_K3,
+    P_RDX,
+    P_RDY,
+    P_RDZ,
+    P_SCALAR,
+    P_OFFSET,
+    P_SLAYER,
+    P_QWEIGHT,
+    P_EXT,
+    P_DRAG,
+    P_RR,
+    P_LIFT,
+    P_LIFTMODEL,
+    P_SLOPE,
+    P_NPROF,
+) = range(19)
+N_PAR = 19
+#: the height profile's spline follows the N_PAR entries: knots y_i (m), heights z_i (m) and the
+#: spline's second derivatives z''_i (1/m), P_NPROF values each
+P_PROFILE = N_PAR
 
 
 def pack_params(
@@ -55,33 +87,63 @@ def pack_params(
     r_delta_body_m: np.ndarray,
     slip_layer_mps: float = 1e-5,
     orientation_weight: float = 1.0,
+    drag_per_m: float = 0.0,
+    rolling_resistance_mps2: float = 0.0,
+    lift_per_m: float = 0.0,
+    lift_model: int = 0,
+    cross_slope: float = 0.0,
+    profile: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
-    """Parameter vector for the kernels; sets the scalar-inertia and offset flags exactly.
+    """Parameter vector for the kernels; sets the scalar-inertia, offset and external-terms
+    flags exactly.
 
     ``slip_layer_mps``: slip speed (m/s) below which friction acts along the slaved direction
     (see :func:`friction_direction`). ``orientation_weight``: weight of the quaternion in the
-    integrator's error norm (0 drops it)."""
+    integrator's error norm (0 drops it).
+
+    External terms (see :func:`external_accel`; all zero: the flag P_EXT is 0 and the
+    right-hand side computes nothing of them): ``drag_per_m`` = C_D rho_air A / (2 M) (1/m),
+    ``rolling_resistance_mps2`` = C_rr g (m/s^2), ``lift_per_m`` = rho_air A / (2 M) (1/m) with
+    ``lift_model`` a LIFT_* code, ``cross_slope`` dz/dy of the lane (dimensionless) and
+    ``profile`` = (y_i, z_i, z''_i) of a natural cubic spline of the lane's height across it
+    (m, m, 1/m; see :func:`bowlrec.core.topography.natural_spline`)."""
     k = np.asarray(inertia_per_mass_m2, dtype=np.float64)
     rd = np.asarray(r_delta_body_m, dtype=np.float64)
     scalar = 1.0 if (k[0] == k[1] == k[2]) else 0.0
     offset = 0.0 if not np.any(rd != 0.0) else 1.0
-    return np.array(
-        [
-            radius_m,
-            g_mps2,
-            k[0],
-            k[1],
-            k[2],
-            rd[0],
-            rd[1],
-            rd[2],
-            scalar,
-            offset,
-            slip_layer_mps,
-            orientation_weight,
-        ],
-        dtype=np.float64,
+    n_prof = 0 if profile is None else int(np.asarray(profile[0]).size)
+    lift = lift_per_m if lift_model != 0 else 0.0
+    ext = (
+        1.0
+        if (drag_per_m != 0.0 or rolling_resistance_mps2 != 0.0 or lift != 0.0)
+        or (cross_slope != 0.0 or n_prof > 0)
+        else 0.0
     )
+    head = [
+        radius_m,
+        g_mps2,
+        k[0],
+        k[1],
+        k[2],
+        rd[0],
+        rd[1],
+        rd[2],
+        scalar,
+        offset,
+        slip_layer_mps,
+        orientation_weight,
+        ext,
+        drag_per_m,
+        rolling_resistance_mps2,
+        lift,
+        float(lift_model) if lift != 0.0 else 0.0,
+        cross_slope,
+        float(n_prof),
+    ]
+    if profile is None:
+        return np.array(head, dtype=np.float64)
+    tail = np.concatenate([np.asarray(a, dtype=np.float64).ravel() for a in profile])
+    return np.concatenate([np.array(head, dtype=np.float64), tail])
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
@@ -101,6 +163,110 @@ def ball_frame(y, par):  # type: ignore[no-untyped-def]
     else:
         rd = (0.0, 0.0, 0.0)
     return iw, rd
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def profile_slope(par, yq):  # type: ignore[no-untyped-def]
+    """dz/dy (dimensionless) of the natural cubic spline through the lane's height profile at
+    y = yq (m); linear beyond the end knots (where the natural spline's curvature is zero, so
+    the slope stays continuous with a continuous derivative)."""
+    n = int(par[P_NPROF])
+    oy = P_PROFILE  # knots y_i, then heights z_i at oy + n, then z''_i at oy + 2 n
+    if yq <= par[oy]:
+        i = 0
+        t = 0.0
+    elif yq >= par[oy + n - 1]:
+        i = n - 2
+        t = par[oy + n - 1] - par[oy + n - 2]
+    else:
+        lo = 0
+        hi = n - 1
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            if par[oy + mid] <= yq:
+                lo = mid
+            else:
+                hi = mid
+        i = lo
+        t = yq - par[oy + i]
+    h = par[oy + i + 1] - par[oy + i]
+    dz = par[oy + n + i + 1] - par[oy + n + i]
+    m0 = par[oy + 2 * n + i]
+    m1 = par[oy + 2 * n + i + 1]
+    return dz / h - h * (2.0 * m0 + m1) / 6.0 + m0 * t + (m1 - m0) * t * t / (2.0 * h)
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def lift_coefficient_per_spin(s, model):  # type: ignore[no-untyped-def]
+    """C_L(S) / S of the Magnus lift model ``model`` (LIFT_* code) at the spin parameter
+    S = R |w_perp| / |v| (dimensionless); finite at S = 0. LIFT_SAWICKI (Sawicki, Hubbard &
+    Stronge, Am. J. Phys. 71, 1152 (2003), their fit to baseball lift data): C_L = 1.5 S for
+    S <= 0.1, 0.09 + 0.6 S above (continuous at S = 0.1)."""
+    if model == LIFT_SAWICKI:
+        if s <= 0.1:
+            return 1.5
+        return 0.09 / s + 0.6
+    return 0.0
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def external_accel(y, par):  # type: ignore[no-untyped-def]
+    """The optional external forces per unit mass at state y (m/s^2), zeros unless switched on.
+
+    Returns (ex, ey, ez, gx, gy): e = drag + rolling resistance + Magnus lift, applied at the
+    geometric center, and (gx, gy, 0) = the lateral gravity of the lane's topography, applied at
+    the center of mass. With v = (v_x, v_y, 0) the velocity of the geometric center (the air is
+    still) and w the angular velocity:
+
+    * drag: -k_D |v| v, k_D = C_D rho A / (2 M) (P_DRAG);
+    * rolling resistance: -C_rr g v / |v| (P_RR = C_rr g). For a rolling ball this is the
+      normal force N = M g acting a distance d = C_rr R ahead of the contact point: its moment
+      about the contact, d N = C_rr R M g, equals that of C_rr M g at the center, R C_rr M g,
+      and both resist the motion. The static load M g stands for N: the normal force differs
+      from it by the offset's a_alpha + a_w and the lift's -e_z (per unit mass), a few per
+      cent of g for real balls (docs/lane-and-air.md);
+    * Magnus lift: k_L C_L(S) |v|^2 (w x v) / |w x v|, k_L = rho A / (2 M) (P_LIFT),
+      S = R |w x v| / |v|^2 = R |w_perp| / |v|; written as k_L (C_L / S) R (w x v), finite
+      when w x v -> 0;
+    * topography: g_h = (0, -g dz/dy, 0), dz/dy = the cross slope (P_SLOPE) plus the height
+      profile's slope (:func:`profile_slope`) at the contact's y (= the center's y).
+
+    A ball at rest (|v| = 0) feels no drag, rolling resistance or lift."""
+    vx = y[2]
+    vy = y[3]
+    v2 = vx * vx + vy * vy
+    ex = 0.0
+    ey = 0.0
+    ez = 0.0
+    if v2 > 0.0:
+        v = math.sqrt(v2)
+        kd = par[P_DRAG]
+        if kd != 0.0:
+            ex -= kd * v * vx
+            ey -= kd * v * vy
+        crr = par[P_RR]
+        if crr != 0.0:
+            ex -= crr * vx / v
+            ey -= crr * vy / v
+        kl = par[P_LIFT]
+        if kl != 0.0:
+            wx = y[8]
+            wy = y[9]
+            wz = y[10]
+            # w x v with v = (vx, vy, 0)
+            cx = -wz * vy
+            cy = wz * vx
+            cz = wx * vy - wy * vx
+            c = math.sqrt(cx * cx + cy * cy + cz * cz)
+            s = par[P_R] * c / v2
+            f = kl * lift_coefficient_per_spin(s, int(par[P_LIFTMODEL])) * par[P_R]
+            ex += f * cx
+            ey += f * cy
+            ez += f * cz
+    slope = par[P_SLOPE]
+    if par[P_NPROF] > 0.0:
+        slope += profile_slope(par, y[1])
+    return ex, ey, ez, 0.0, -par[P_G] * slope
 
 
 @njit(cache=True, error_model="numpy", forceinline=True)
@@ -137,6 +303,8 @@ def _slide_frame(y, par):  # type: ignore[no-untyped-def]
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _slide_accel_frame(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-def]
     """``slide_accel`` given ``_slide_frame(y, par)``."""
+    if par[P_EXT] != 0.0:
+        return _slide_accel_external(y, par, frame, mu, ux, uy)
     R = par[P_R]
     g = par[P_G]
     wx = y[8]
@@ -180,14 +348,70 @@ def _slide_accel_frame(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-de
     return accx, accy, ax_, ay_, az_, n
 
 
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def _slide_accel_external(y, par, frame, mu, ux, uy):  # type: ignore[no-untyped-def]
+    """``_slide_accel_frame`` with the external forces of :func:`external_accel`.
+
+    With e (at the geometric center) and g_h (at the center of mass) per unit mass, the
+    vertical force equation gives n = g - e_z + a_alpha + a_w, the torque about the center of
+    mass gains r_Delta x e (g_h has no moment about the center of mass), so
+
+        (I - (rho x mu_vec) e_a^T) alpha = (I_dev w) x w + (g - e_z + a_w) rho x mu_vec
+                                           + r_Delta x e,
+
+    and the center of mass (and with it the geometric center) accelerates by e_h + g_h more."""
+    R = par[P_R]
+    g = par[P_G]
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    iw, rd, td = frame
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    rdx, rdy, rdz = rd
+    mx = mu * ux
+    my = mu * uy
+    tdx, tdy, tdz = td
+    fex, fey, fez, gx, gy = external_accel(y, par)
+    cx, cy, cz = cross(rdx, rdy, rdz - R, mx, my, 1.0)
+    if par[P_OFFSET] == 0.0:
+        k = g - fez
+        ax_, ay_, az_ = solve3(
+            ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz,
+            tdx + k * cx, tdy + k * cy, tdz + k * cz,
+        )  # fmt: skip
+        return k * mx + fex + gx, k * my + fey + gy, ax_, ay_, az_, k
+    w2 = wx * wx + wy * wy + wz * wz
+    wr = wx * rdx + wy * rdy + wz * rdz
+    aw = w2 * rdz - wz * wr
+    ex = -rdy
+    ey = rdx
+    k = g - fez + aw
+    # r_Delta x e
+    qx, qy, qz = cross(rdx, rdy, rdz, fex, fey, fez)
+    ax_, ay_, az_ = solve3(
+        ixx - cx * ex, ixy - cx * ey, ixz,
+        ixy - cy * ex, iyy - cy * ey, iyz,
+        ixz - cz * ex, iyz - cz * ey, izz,
+        tdx + k * cx + qx, tdy + k * cy + qy, tdz + k * cz + qz,
+    )  # fmt: skip
+    n = k + ex * ax_ + ey * ay_
+    px, py, _ = cross(ax_, ay_, az_, rdx, rdy, rdz)
+    accx = n * mx + px + wx * wr - rdx * w2 + fex + gx
+    accy = n * my + py + wy * wr - rdy * w2 + fey + gy
+    return accx, accy, ax_, ay_, az_, n
+
+
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def roll_accel(y, par):  # type: ignore[no-untyped-def]
     """Rolling without slipping.
 
     Returns (ax, ay, alpha_x, alpha_y, alpha_z, fx, fy, n): center acceleration (m/s^2), angular
     acceleration (rad/s^2), the horizontal contact (friction) force per unit mass (m/s^2) and the
-    normal force per unit mass (m/s^2).
+    normal force per unit mass (m/s^2). With the external terms on (P_EXT), see
+    :func:`_roll_accel_external`.
     """
+    if par[P_EXT] != 0.0:
+        return _roll_accel_external(y, par)
     R = par[P_R]
     g = par[P_G]
     wx = y[8]
@@ -226,6 +450,59 @@ def roll_accel(y, par):  # type: ignore[no-untyped-def]
     fy = hy + rdy * w2 - wy * wr
     n = g + hz + rdz * w2 - wz * wr
     # a_cb = R_con x alpha = (R alpha_y, -R alpha_x, 0)
+    return R * ay_, -R * ax_, ax_, ay_, az_, fx, fy, n
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT)
+def _roll_accel_external(y, par):  # type: ignore[no-untyped-def]
+    """``roll_accel`` with the external forces of :func:`external_accel` (kept apart so that the
+    flat-lane right-hand side compiles to the same code with one branch more).
+
+    With e at the geometric center and g_h at the center of mass (per unit mass), the contact
+    force is F/M = a_com + g z - e - g_h = g z + rho x alpha + (w x r_Delta) x w - e - g_h and
+    its moment plus that of e about the center of mass gives
+
+        (I + |rho|^2 1 - rho rho^T) alpha = (I_dev w) x w + tau_Delta^r + tau_DeltaDelta^r
+                                            - R_con x e - rho x g_h.
+    """
+    R = par[P_R]
+    g = par[P_G]
+    wx = y[8]
+    wy = y[9]
+    wz = y[10]
+    iw, rd = ball_frame(y, par)
+    ixx, iyy, izz, ixy, ixz, iyz = iw
+    rdx, rdy, rdz = rd
+    tx, ty, tz = _dev_torque(iw, wx, wy, wz, par[P_SCALAR] != 0.0)
+    pz = rdz - R  # rho = (rdx, rdy, pz)
+    if par[P_OFFSET] != 0.0:
+        w2 = wx * wx + wy * wy + wz * wz
+        wr = wx * rdx + wy * rdy + wz * rdz
+        tx += g * rdy + R * (w2 * rdy - wr * wy)
+        ty += -g * rdx + R * (-w2 * rdx + wr * wx)
+        qx, qy, qz = cross(wx, wy, wz, rdx, rdy, rdz)
+        tx += wr * qx
+        ty += wr * qy
+        tz += wr * qz
+    else:
+        w2 = 0.0
+        wr = 0.0
+    fex, fey, fez, gx, gy = external_accel(y, par)
+    # -R_con x e = (-R e_y, R e_x, 0) and -rho x g_h = (pz g_y, -pz g_x, r_y g_x - r_x g_y)
+    tx += -R * fey + pz * gy
+    ty += R * fex - pz * gx
+    tz += rdy * gx - rdx * gy
+    p2 = rdx * rdx + rdy * rdy + pz * pz
+    ax_, ay_, az_ = solve3(
+        ixx + p2 - rdx * rdx, ixy - rdx * rdy, ixz - rdx * pz,
+        ixy - rdx * rdy, iyy + p2 - rdy * rdy, iyz - rdy * pz,
+        ixz - rdx * pz, iyz - rdy * pz, izz + p2 - pz * pz,
+        tx, ty, tz,
+    )  # fmt: skip
+    hx, hy, hz = cross(rdx, rdy, pz, ax_, ay_, az_)
+    fx = hx + rdx * w2 - wx * wr - fex - gx
+    fy = hy + rdy * w2 - wy * wr - fey - gy
+    n = g + hz + rdz * w2 - wz * wr - fez
     return R * ay_, -R * ax_, ax_, ay_, az_, fx, fy, n
 
 

@@ -17,12 +17,25 @@ Conventions (the paper's, Frohlich 2004):
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .codes import RECORD_STEPS, SLIDE_TO_ROLL_EXACT
+from .codes import LIFT_NONE, RECORD_STEPS, SLIDE_TO_ROLL_EXACT
+
+#: Plan fields of the optional external terms: a Plan at their defaults is a flat lane in still
+#: air without rolling resistance, and its run ID and stored resolved fields leave them out
+#: (:func:`external_field_at_default`), as they were before these fields existed
+EXTERNAL_FIELDS = (
+    "drag_coefficient",
+    "air_density_kg_m3",
+    "lift_model",
+    "rolling_resistance",
+    "cross_slope",
+    "profile_y_m",
+    "profile_z_m",
+)
 
 
 @dataclass(frozen=True)
@@ -74,6 +87,22 @@ class Plan:
     max_steps: int = 2_000_000
     #: free-form labels carried to the result (not used by the physics)
     labels: dict[str, str] = field(default_factory=dict)
+    # ---- optional external terms (none in the paper; all off by default; see
+    # bowlrec.core.dynamics.external_accel and docs/lane-and-air.md) ----
+    #: air drag coefficient C_D (dimensionless); 0: no drag
+    drag_coefficient: float = 0.0
+    #: density of the air (kg/m^3), for drag and lift
+    air_density_kg_m3: float = 1.204
+    #: Magnus lift model (LIFT_* code of bowlrec.core.codes); LIFT_NONE: no lift
+    lift_model: int = LIFT_NONE
+    #: rolling-resistance coefficient C_rr (dimensionless): a force C_rr M g against the motion
+    rolling_resistance: float = 0.0
+    #: lane height's slope across the lane dz/dy (dimensionless; > 0: the left side is higher)
+    cross_slope: float = 0.0
+    #: height profile across the lane: knots y (m, strictly ascending) ...
+    profile_y_m: NDArray[np.float64] | None = None
+    #: ... and the lane's heights there (m), joined by a natural cubic spline
+    profile_z_m: NDArray[np.float64] | None = None
 
     @property
     def scalar_inertia(self) -> bool:
@@ -87,6 +116,29 @@ class Plan:
         return bool(np.any(self.r_delta_body_m != 0.0))
 
     @property
+    def external_terms(self) -> bool:
+        """True when any optional external term is on (drag, rolling resistance, lift, cross
+        slope, height profile): the closed form and other flat-lane shortcuts do not apply."""
+        return bool(
+            self.drag_coefficient != 0.0
+            or self.lift_model != LIFT_NONE
+            or self.rolling_resistance != 0.0
+            or self.cross_slope != 0.0
+            or self.profile_y_m is not None
+        )
+
+    @property
     def constant_friction(self) -> bool:
         """True when the friction map has a single value (no zone events can happen)."""
         return bool(np.all(self.friction_mu == self.friction_mu.flat[0]))
+
+
+def external_field_at_default(plan: Plan, name: str) -> bool:
+    """True when ``name`` is one of :data:`EXTERNAL_FIELDS` and ``plan`` has its default."""
+    if name not in EXTERNAL_FIELDS:
+        return False
+    default = {f.name: f.default for f in fields(Plan)}[name]
+    value = getattr(plan, name)
+    if value is None or default is None:
+        return value is None and default is None
+    return bool(value == default)

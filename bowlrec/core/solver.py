@@ -21,6 +21,7 @@ from .codes import (
     EV_X,
     EV_Y,
     EVENT_KINDS,
+    LIFT_NONE,
     N_STATE,
     OBS_STATE,
     OBS_T,
@@ -40,7 +41,8 @@ from .integrator import simulate_kernel
 from .plan import Plan
 from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
-from .terms import INERTIA_TERMS, TORQUE_TERMS
+from .terms import EXTERNAL_TERM, INERTIA_TERMS, TORQUE_TERMS
+from .topography import natural_spline
 from .trajectory import Event, Observation, Summary, Trajectory
 
 
@@ -56,6 +58,24 @@ def initial_state(plan: Plan) -> np.ndarray:
 
 
 def kernel_params(plan: Plan) -> np.ndarray:
+    """The kernels' parameter vector (``dynamics.pack_params``); N_PAR values, plus the height
+    profile's spline (3 values per knot) when the plan has one."""
+    if not plan.external_terms:
+        return pack_params(
+            plan.radius_m,
+            plan.g_mps2,
+            plan.inertia_per_mass_m2,
+            plan.r_delta_body_m,
+            slip_layer(plan),
+            orientation_weight(plan),
+        )
+    # per unit mass: (1/2) rho A / M with A = pi R^2 the ball's cross-section (1/m)
+    air = 0.5 * plan.air_density_kg_m3 * math.pi * plan.radius_m**2 / plan.mass_kg
+    profile = None
+    if plan.profile_y_m is not None and plan.profile_z_m is not None:
+        py = np.asarray(plan.profile_y_m, dtype=np.float64)
+        pz = np.asarray(plan.profile_z_m, dtype=np.float64)
+        profile = (py, pz, natural_spline(py, pz))
     return pack_params(
         plan.radius_m,
         plan.g_mps2,
@@ -63,6 +83,12 @@ def kernel_params(plan: Plan) -> np.ndarray:
         plan.r_delta_body_m,
         slip_layer(plan),
         orientation_weight(plan),
+        drag_per_m=plan.drag_coefficient * air,
+        rolling_resistance_mps2=plan.rolling_resistance * plan.g_mps2,
+        lift_per_m=air if plan.lift_model != LIFT_NONE else 0.0,
+        lift_model=int(plan.lift_model),
+        cross_slope=plan.cross_slope,
+        profile=profile,
     )
 
 
@@ -113,10 +139,12 @@ def slip_layer(plan: Plan) -> float:
 
 
 def use_closed_form(plan: Plan, observing: bool = False) -> bool:
-    """A uniform ball needs no integrator when only the summary is asked for (exact rule) and
-    nothing is observed on the way."""
+    """A uniform ball needs no integrator when only the summary is asked for (exact rule),
+    nothing is observed on the way and no external term (drag, rolling resistance, lift,
+    topography) acts: the closed form knows only friction and gravity on a flat lane."""
     return (
         not observing
+        and not plan.external_terms
         and plan.scalar_inertia
         and not plan.has_offset
         and plan.record_mode == RECORD_SUMMARY
@@ -141,6 +169,11 @@ def kernel_call(
     if method == "closed_form" or (method == "auto" and use_closed_form(plan, observing)):
         if not (plan.scalar_inertia and not plan.has_offset):
             raise ValueError("the closed form needs a uniform ball (scalar inertia, no offset)")
+        if plan.external_terms:
+            raise ValueError(
+                "the closed form needs a flat lane without drag, rolling resistance or lift "
+                "(use method 'auto' or 'integrator')"
+            )
         if observing:
             raise ValueError("observations need the integrator (method 'auto' or 'integrator')")
         args: tuple[Any, ...] = (
@@ -235,6 +268,8 @@ def solve(
             torque_arrays[name] = inertia_alpha[:, j, :] * mass
         for j, name in enumerate(TORQUE_TERMS):
             torque_arrays[name] = torques[:, j, :] * mass
+        if plan.external_terms:
+            torque_arrays[EXTERNAL_TERM] = torques[:, len(TORQUE_TERMS), :] * mass
     return Trajectory(
         t_s=rec[:, COL_T].copy(),
         position_m=position,

@@ -17,6 +17,13 @@ mu_vec = (mu u_x, mu u_y, 1), R_con = (0, 0, -R) and a_w = [(w x r_Delta) x w]_z
 
 The arrays are indexed by the TERM_* / TORQUE_* constants; terms that do not belong to the phase
 are zero. Units: inertia terms m^2 (per unit mass), torques m^2/s^2 (per unit mass).
+
+The optional external forces (``dynamics.external_accel``: e at the geometric center, the
+topography's g_h at the center of mass; none in the paper) add one torque, ``EXTERNAL_TERM``
+(row 6 of the torques, zero when they are off):
+
+    sliding: tau_ext^s = r_Delta x e - e_z rho x mu_vec   (e's moment and its change of n)
+    rolling: tau_ext^r = -R_con x e - rho x g_h
 """
 
 from __future__ import annotations
@@ -25,7 +32,7 @@ import numpy as np
 from numba import njit
 
 from .codes import PHASE_ROLL
-from .dynamics import P_G, P_K1, P_K2, P_K3, P_R, P_RDX, P_RDY, P_RDZ
+from .dynamics import P_EXT, P_G, P_K1, P_K2, P_K3, P_R, P_RDX, P_RDY, P_RDZ, external_accel
 from .vec import quat_matrix, solve3
 
 INERTIA_TERMS = ("I_o", "I_dev", "I_Delta_s", "I_DeltaDelta_s", "I_Roll", "I_Delta_r")
@@ -37,6 +44,8 @@ TORQUE_TERMS = (
     "tau_Delta_r",
     "tau_DeltaDelta_r",
 )
+#: the torque of the optional external forces (row 6 of ``equation_terms``' torques)
+EXTERNAL_TERM = "tau_ext"
 
 
 @njit(cache=True, error_model="numpy")
@@ -67,8 +76,9 @@ def _crossv(a, b):  # type: ignore[no-untyped-def]
 def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     """All inertia matrices and torques of the phase's equation at state y.
 
-    Returns (mats (6, 3, 3), taus (6, 3), alpha (3,)) with alpha solving the summed equation.
-    (ux, uy) is the unit friction direction (used while sliding).
+    Returns (mats (6, 3, 3), taus (7, 3), alpha (3,)) with alpha solving the summed equation.
+    (ux, uy) is the unit friction direction (used while sliding). taus[6] is ``EXTERNAL_TERM``
+    (zero, and left out of the sum, when the external forces are off).
     """
     R = par[P_R]
     g = par[P_G]
@@ -92,7 +102,12 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
     zhat = np.array([0.0, 0.0, 1.0])
     rcon = np.array([0.0, 0.0, -R])
     mats = np.zeros((6, 3, 3))
-    taus = np.zeros((6, 3))
+    taus = np.zeros((7, 3))
+    external = par[P_EXT] != 0.0
+    if external:
+        fe = external_accel(y, par)
+        e = np.array([fe[0], fe[1], fe[2]])
+        gh = np.array([fe[3], fe[4], 0.0])
     iave = (par[P_K1] + par[P_K2] + par[P_K3]) / 3.0
     for i in range(3):
         mats[0, i, i] = iave
@@ -113,6 +128,8 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
         taus[0] = g * rcm
         taus[2] = g * rdm + aw * rcm
         taus[3] = aw * rdm
+        if external:
+            taus[6] = _crossv(rd, e) - e[2] * (rcm + rdm)
     else:
         rho = rd + rcon
         mats[4, 0, 0] = R * R
@@ -125,8 +142,12 @@ def equation_terms(y, par, phase, mu, ux, uy):  # type: ignore[no-untyped-def]
         mats[5] = full - mats[4]
         taus[4] = g * _crossv(rd, zhat) + R * (w2 * _crossv(rd, zhat) + wr * _crossv(zhat, w))
         taus[5] = wr * _crossv(w, rd)
+        if external:
+            taus[6] = -_crossv(rcon, e) - _crossv(rho, gh)
     a = mats[0] + mats[1] + mats[2] + mats[3] + mats[4] + mats[5]
     tau = taus[0] + taus[1] + taus[2] + taus[3] + taus[4] + taus[5]
+    if external:
+        tau = tau + taus[6]
     al = solve3(
         a[0, 0], a[0, 1], a[0, 2], a[1, 0], a[1, 1], a[1, 2], a[2, 0], a[2, 1], a[2, 2],
         tau[0], tau[1], tau[2],

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -67,6 +67,8 @@ class StoredRun:
     trajectory: Trajectory
     #: root attributes (format, versions, solver settings, wall time, created-at, ball_ref, ...)
     attrs: dict[str, Any]
+    #: per-run record groups of an archived run (archive format 2.1): group -> {dataset: rows}
+    records: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @property
     def ball_ref(self) -> str | None:
@@ -86,8 +88,12 @@ def _dataset(group: h5py.Group, name: str, data: Any, units_name: str | None = N
 
 
 def _write_resolved(group: h5py.Group, run: RunData) -> None:
+    from bowlrec.core.plan import external_field_at_default
+
     for f in dataclasses.fields(run.plan):
         value = getattr(run.plan, f.name)
+        if external_field_at_default(run.plan, f.name):
+            continue  # an optional external term that is off (as the run ID leaves it out)
         if f.name == "labels":
             group.attrs["labels_json"] = json.dumps(value, sort_keys=True)
         elif value is None:

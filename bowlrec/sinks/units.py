@@ -25,6 +25,10 @@ _SUFFIX_UNITS = {
     "_N": "N",
     "_Nm": "N m",
     "_J": "J",
+    "_kg_m3": "kg/m^3",
+    "_ft": "ft",
+    "_boards": "board",
+    "_ul": "uL",
 }
 
 #: quantities without units, with what their numbers mean
@@ -41,6 +45,10 @@ DIMENSIONLESS = {
     "max_steps": "count",
     "kind": "event kind",
     "torque_term": "equation term",
+    "drag_coefficient": "air drag coefficient C_D",
+    "lift_model": "Magnus lift model (0 none, 1 Sawicki et al. 2003)",
+    "rolling_resistance": "rolling-resistance coefficient C_rr",
+    "cross_slope": "lane slope across dz/dy",
 }
 
 

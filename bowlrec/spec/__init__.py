@@ -4,16 +4,18 @@ resolution to the plain-number :class:`~bowlrec.core.plan.Plan`.
 Imports only Pydantic, NumPy and (lazily, for .yaml files) PyYAML; never numba.
 """
 
+from .air import Air
 from .ball import Ball
 from .delivery import Delivery
 from .errors import format_validation_error
 from .friction import ConstantFriction, Friction, TypicalFriction, Zone, ZoneFriction
-from .lane import Lane
+from .lane import Lane, Topography
 from .loading import dump_scene_json, load_scene
 from .options import Options
 from .scene import Scene
 
 __all__ = [
+    "Air",
     "Ball",
     "ConstantFriction",
     "Delivery",
@@ -21,6 +23,7 @@ __all__ = [
     "Lane",
     "Options",
     "Scene",
+    "Topography",
     "TypicalFriction",
     "Zone",
     "ZoneFriction",

@@ -26,6 +26,14 @@ Why each bound:
   needs several times that while it is simulated (benchmarks/results/hardening.md, "The
   largest recording allowed").
 * friction zones 256: a zone map becomes a grid of up to (2n + 1)^2 cells.
+* lane slope |dz/dy| <= 1e-3 (cross tilt plus height profile): the small-slope approximation
+  (gravity's lateral component added, the contact geometry kept flat) is good to O(slope^2),
+  ~1e-6; USBC's legal cross tilt is 0.040 in over 41.5 in, ~1e-3. A height profile has at most
+  256 points (about 6 per board).
+* rolling-resistance coefficient 0.1: hard rubber on steel is ~1e-3, a car tire on asphalt
+  ~0.01; 0.1 is a soft wheel in sand.
+* drag coefficient 2 and air density 10 kg/m^3: a sphere's C_D is 0.1-0.5 above Re 1e3 (about
+  2 is a flat plate); air at sea level is 1.2 kg/m^3.
 """
 
 from __future__ import annotations
@@ -42,6 +50,11 @@ __all__ = [
     "MAX_SPEED_MPS",
     "MAX_TIME_S",
     "MAX_ZONES",
+    "MAX_SLOPE",
+    "MAX_PROFILE_POINTS",
+    "MAX_ROLLING_RESISTANCE",
+    "MAX_DRAG_COEFFICIENT",
+    "MAX_AIR_DENSITY",
 ]
 
 MAX_SPEED_MPS = 100.0
@@ -55,3 +68,8 @@ MAX_TIME_S = 10_000.0
 MAX_SAMPLES_PER_RUN = 2_000_000
 MAX_ZONES = 256
 MAX_GRID_EDGES = 4096
+MAX_SLOPE = 1e-3
+MAX_PROFILE_POINTS = 256
+MAX_ROLLING_RESISTANCE = 0.1
+MAX_DRAG_COEFFICIENT = 2.0
+MAX_AIR_DENSITY = 10.0

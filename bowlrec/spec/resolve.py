@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowlrec.core.codes import (
+    LIFT_SAWICKI,
     RECORD_RATE,
     RECORD_STEPS,
     RECORD_SUMMARY,
@@ -25,9 +26,10 @@ if TYPE_CHECKING:
     from .delivery import Delivery
     from .scene import Scene
 
-__all__ = ["initial_rotation", "release_state", "resolve_scene"]
+__all__ = ["external_terms", "initial_rotation", "release_state", "resolve_scene"]
 
 _RECORD_MODES = {"steps": RECORD_STEPS, "rate": RECORD_RATE, "summary": RECORD_SUMMARY}
+_LIFT_MODELS = {"sawicki2003": LIFT_SAWICKI}
 _SLIDE_TO_ROLL = {"exact": SLIDE_TO_ROLL_EXACT, "threshold": SLIDE_TO_ROLL_THRESHOLD}
 
 
@@ -87,4 +89,29 @@ def resolve_scene(scene: Scene) -> Plan:
         slip_threshold_mps=float(options.slip_threshold_mps),
         max_time_s=float(options.max_time_s),
         labels={"scene": scene.name},
+        **external_terms(scene),
     )
+
+
+def external_terms(scene: Scene) -> dict[str, Any]:
+    """The Plan fields of the optional external terms, only those that are on (the rest keep
+    the Plan's defaults, so scenes without them resolve as they do without these fields)."""
+    out: dict[str, Any] = {}
+    air, lane = scene.air, scene.lane
+    if air.drag:
+        out["drag_coefficient"] = float(air.drag_coefficient)
+    if air.magnus:
+        out["lift_model"] = _LIFT_MODELS[air.lift_model]
+    if (air.drag or air.magnus) and air.density_kg_m3 != 1.204:
+        out["air_density_kg_m3"] = float(air.density_kg_m3)
+    if lane.rolling_resistance != 0.0:
+        out["rolling_resistance"] = float(lane.rolling_resistance)
+    topo = lane.topography
+    if topo is not None:
+        if topo.cross_slope != 0.0:
+            out["cross_slope"] = float(topo.cross_slope)
+        if topo.profile_m is not None:
+            pts = np.asarray(topo.profile_m, dtype=np.float64)
+            out["profile_y_m"] = pts[:, 0].copy()
+            out["profile_z_m"] = pts[:, 1].copy()
+    return out

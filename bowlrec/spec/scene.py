@@ -7,6 +7,7 @@ from typing import TYPE_CHECKING
 from pydantic import Field, ValidationInfo, field_validator
 
 from ._base import SpecModel, fmt, spec_error
+from .air import Air
 from .ball import Ball
 from .delivery import Delivery
 from .lane import Lane
@@ -31,6 +32,11 @@ class Scene(SpecModel):
     lane: Lane = Field(default_factory=lambda: Lane())
     delivery: Delivery = Field(default_factory=lambda: Delivery())
     options: Options = Field(default_factory=lambda: Options())
+    air: Air = Field(
+        default_factory=lambda: Air(),
+        exclude_if=lambda v: v == Air(),  # left out of the JSON when all off (as before it existed)
+        description="Air drag and Magnus lift (both off by default).",
+    )
 
     @field_validator("delivery")
     @classmethod

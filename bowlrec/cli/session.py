@@ -1,0 +1,223 @@
+"""``bowlrec session``: play sessions (bowlers, games, one lane whose oil changes shot by shot)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+from ._app import app
+from ._common import ArchiveOption, JsonOption, QuietOption, fail, open_archive, with_progress
+
+if TYPE_CHECKING:
+    from bowlrec.session.runner import SessionResult
+
+#: the shots table's columns (ShotRow fields), units in the names
+TABLE_COLUMNS = (
+    "shot",
+    "game",
+    "frame",
+    "ball",
+    "bowler",
+    "run_id",
+    "outcome",
+    "pocket",
+    "entry_board",
+    "entry_angle_deg",
+    "breakpoint_board",
+    "breakpoint_ft",
+    "lane_oil_ul",
+    "lifted_ul",
+    "deposited_ul",
+    "absorbed_ul",
+    "ball_load_ul",
+    "simulated",
+)
+
+
+@app.command()
+def session(
+    files: Annotated[
+        list[Path], typer.Argument(help="Session files (format bowlrec-session, JSON or YAML).")
+    ],
+    archive: ArchiveOption = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Directory for each session's shots table and figures (default: "
+            "FILE-session/ in the current directory, FILE without its suffix; one "
+            "subdirectory per session when several).",
+        ),
+    ] = None,
+    workers: Annotated[
+        int,
+        typer.Option(
+            "--workers",
+            "-w",
+            min=1,
+            help="Sessions played at once, one process each (the shots of a session are "
+            "sequential: each changes the lane for the next).",
+        ),
+    ] = 1,
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler",
+            help="dask.distributed scheduler address: play the sessions on that cluster "
+            "(its workers need this archive's and the output directory's filesystem).",
+        ),
+    ] = None,
+    max_shots: Annotated[
+        int | None,
+        typer.Option("--max-shots", min=1, help="Stop each session after this many shots."),
+    ] = None,
+    json_out: JsonOption = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Play sessions shot by shot into the archive: the oil grid after every shot is stored
+    with it, and rerunning a session resumes after its last archived shot. A file with a
+    ``sweep`` plays one session per point; sessions run in parallel with --workers or
+    --scheduler.
+
+    Writes per session: shots.csv (one row per shot), oil.svg/png (the oil before and after)
+    and drift.svg/png (breakpoint, entry board and angle over the session).
+    """
+    from bowlrec.session.spec import load_sessions
+
+    sessions = []
+    for f in files:
+        if not f.exists():
+            fail(f"{f}: no such file")
+        sessions.append((f, load_sessions(f)))
+    store = open_archive(archive)
+    root = str(store.root)
+    store.close()
+    several = len(files) > 1
+    tasks = [
+        (spec.model_dump_json(), _out_dir(out, f, several, spec.name if len(specs) > 1 else None))
+        for f, specs in sessions
+        for spec in specs
+    ]
+    if (workers > 1 or scheduler is not None) and len(tasks) > 1:
+        from bowlrec.batch.runner import worker_pool
+
+        with worker_pool(min(workers, len(tasks)), scheduler) as pool:
+            futures = [
+                pool.pool.submit(_play_one, text, root, str(d), max_shots, True)
+                for text, d in tasks
+            ]
+            summaries = [fut.result() for fut in futures]
+    else:
+        summaries = [_play_one(text, root, str(d), max_shots, quiet) for text, d in tasks]
+    if json_out:
+        import json
+
+        typer.echo(json.dumps(summaries, indent=2))
+        return
+    for s in summaries:
+        for name, message in s["aims"].items():
+            if not message.startswith("enters the pocket"):
+                typer.echo(
+                    f"warning: {s['name']}: {name} aimed on the fresh lane: {message}", err=True
+                )
+        typer.echo(
+            f"{s['name']}: {s['shots']} shots ({s['simulated']} simulated, {s['resumed']} read "
+            f"back from the archive) in {s['seconds']:.1f} s; lane oil {s['oil_before_ul']:.0f} "
+            f"-> {s['oil_after_ul']:.0f} uL; strikes {s['strikes']}/{s['first_balls']}",
+            err=True,
+        )
+        if not quiet:
+            typer.echo(f"  {s['out']}/: shots.csv, oil.svg/png, drift.svg/png", err=True)
+
+
+def _out_dir(out: Path | None, file: Path, several: bool, point: str | None) -> Path:
+    """FILE-session/ in the current directory (or --out), per file when several, per sweep
+    point when a sweep."""
+    base = Path(f"{file.stem}-session") if out is None else out
+    if out is not None and several:
+        base = base / file.stem
+    return base / point if point is not None else base
+
+
+def _play_one(
+    spec_json: str, archive_root: str, out_dir: str, max_shots: int | None, quiet: bool
+) -> dict[str, Any]:
+    """Play one session into the archive and write its outputs (in a worker when several run
+    at once); a summary dict."""
+    from bowlrec.archive import Archive
+    from bowlrec.session.spec import SessionSpec
+
+    spec = SessionSpec.model_validate_json(spec_json)
+    store = Archive(archive_root, create=False)
+    try:
+        result = _run(spec, store, max_shots, quiet)
+    finally:
+        store.close()
+    paths = write_outputs(result, Path(out_dir))
+    first = [r for r in result.rows if r.ball == 1]
+    return {
+        "name": spec.name,
+        "session_id": result.session_id,
+        "shots": len(result.rows),
+        "simulated": result.simulated,
+        "resumed": result.resumed,
+        "seconds": result.seconds,
+        "oil_before_ul": float(result.fresh.volume_ul.sum()),
+        "oil_after_ul": float(result.final.volume_ul.sum()),
+        "strikes": sum(r.pocket for r in first),
+        "first_balls": len(first),
+        "aims": result.aims,
+        "out": str(Path(out_dir)),
+        "files": [str(p) for p in paths],
+    }
+
+
+def _run(spec: Any, store: Any, max_shots: int | None, quiet: bool) -> SessionResult:
+    """``run_session`` under a progress bar counting frames (on a terminal, without --quiet)."""
+    from bowlrec.session.runner import FRAMES, run_session
+
+    def work(advance: Any) -> SessionResult:
+        def on_shot(row: Any) -> None:
+            if row.ball == 1:
+                advance(row)
+
+        hook = None if advance is None else on_shot
+        return run_session(spec, store, on_shot=hook, max_shots=max_shots)
+
+    frames = spec.games * FRAMES * len(spec.bowlers)
+    result: SessionResult = with_progress(quiet, f"session {spec.name} (frames)", frames, work)
+    return result
+
+
+def write_outputs(result: SessionResult, out_dir: Path) -> list[Path]:
+    """The shots table (CSV) and the figures (SVG and PNG) of a session, written atomically."""
+    from bowlrec.atomic_files import atomic_path
+    from bowlrec.session.figures import drift_figure, figure_bytes, oil_before_after_figure
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = [out_dir / "shots.csv"]
+    with atomic_path(paths[0], durable=False) as tmp, open(tmp, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(TABLE_COLUMNS)
+        for r in result.rows:
+            d = r.to_dict()
+            w.writerow(["" if d[c] is None else d[c] for c in TABLE_COLUMNS])
+    name = result.spec.name
+    figures = {
+        "oil": oil_before_after_figure(
+            result.fresh, result.final, title=f"{name}: oil before and after"
+        ),
+    }
+    if result.rows:
+        figures["drift"] = drift_figure([r.to_dict() for r in result.rows])
+    for stem, fig in figures.items():
+        for fmt in ("svg", "png"):
+            path = out_dir / f"{stem}.{fmt}"
+            with atomic_path(path, durable=False) as tmp:
+                Path(tmp).write_bytes(figure_bytes(fig, fmt))
+            paths.append(path)
+    return paths

@@ -1,0 +1,260 @@
+"""A session file (format ``bowlrec-session``): bowlers throwing games on one lane whose oil
+changes shot by shot.
+
+::
+
+    format: bowlrec-session
+    name: league-night
+    pattern: house_shot_approx          # a preset name or an inline pattern sheet
+    games: 3
+    seed: 7
+    bowlers:
+      - name: Ann
+        scene: ann.yaml                 # a bowler scene: path (relative to this file) or inline
+        scatter: pro                    # robot | pro | league | {speed_mph: ..., ...}
+      - name: Bo
+        scene: {ball: {...}, delivery: {...}}
+    transfer: {pickup_fraction: 0.5}    # bowlrec.bowling.oil_transfer.TransferModel
+    grid: {cell_ft: 1, cell_boards: 1}  # the oil grid the lane evolves on
+
+Each bowler's scene gives the ball, layout, delivery and target; the session's ``pattern``
+replaces the scene's own (every bowler bowls on the same lane). The session's friction mapping
+(``oil_friction``) gives friction from the oil film with Fresh Oil's power ramp, referenced to
+the fresh pattern's thickest film in the heads (``oil_transfer.heads_film_um``), so that
+breakdown changes friction; the bowler scene's own mapping is not used.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field, ValidationError, field_validator, model_validator
+
+from bowlrec.bowling.oil import KegelPattern, RectanglePattern, preset, preset_names
+from bowlrec.bowling.oil_friction import OilFrictionMapping
+from bowlrec.bowling.oil_transfer import TransferModel
+from bowlrec.bowling.pocket import POCKET, Pocket
+from bowlrec.bowling.scene import BowlerScene
+from bowlrec.bowling.variance import PRESETS, ReleaseScatter
+from bowlrec.errors import InputError, SceneInputError
+from bowlrec.spec import format_validation_error
+from bowlrec.spec._base import PositiveFloat, SpecModel, spec_error
+from bowlrec.spec.loading import read_mapping
+
+__all__ = [
+    "MAX_BOWLERS",
+    "MAX_GAMES",
+    "SESSION_FORMAT",
+    "OilGridSpec",
+    "SessionBowler",
+    "SessionSpec",
+    "MAX_SESSIONS",
+    "expand_sessions",
+    "load_session",
+    "load_sessions",
+    "parse_session",
+]
+
+SESSION_FORMAT = "bowlrec-session"
+MAX_BOWLERS = 12
+MAX_GAMES = 60
+#: sessions one file's sweep may expand to
+MAX_SESSIONS = 1000
+
+
+class OilGridSpec(SpecModel):
+    """The regular grid the lane's oil evolves on (board widths x feet), foul line to pins.
+
+    The default (1 ft x 1 board) is the resolution chosen in docs/oil-transition.md from
+    ``benchmarks/results/oil_grid.md``: what each resolution costs the kernel in located
+    friction-zone events against how far it moves the entry board."""
+
+    cell_ft: PositiveFloat = Field(
+        default=1.0, le=60.0, description="Cell length along the lane (ft), in (0, 60]."
+    )
+    cell_boards: PositiveFloat = Field(
+        default=1.0, le=39.0, description="Cell width across the lane (boards), in (0, 39]."
+    )
+
+
+class SessionBowler(SpecModel):
+    """One bowler: a bowler scene (ball, layout, delivery, target) and a release scatter."""
+
+    name: str = Field(min_length=1, max_length=40, description="The bowler's name.")
+    scene: BowlerScene = Field(description="The bowler's shot (a bowler scene).")
+    scatter: Literal["robot", "pro", "league"] | ReleaseScatter = Field(
+        default="pro",
+        description="Release scatter: a preset (robot, pro, league) or one sigma per quantity.",
+    )
+    aim: bool = Field(
+        default=True,
+        description=(
+            "Find the target at the arrows that enters the pocket on the fresh lane before the "
+            "first shot (as a bowler's practice shots do), then keep it; false: the scene's "
+            "own target or launch angle."
+        ),
+    )
+
+    def scatter_model(self) -> ReleaseScatter:
+        """The scatter as a model (a preset looked up by name)."""
+        return PRESETS[self.scatter] if isinstance(self.scatter, str) else self.scatter
+
+
+class SessionSpec(SpecModel):
+    """A session: ``bowlers`` take turns frame by frame for ``games`` games on one lane oiled
+    with ``pattern`` (module docstring)."""
+
+    format: Literal["bowlrec-session"] = Field(default="bowlrec-session")
+    name: str = Field(default="session", min_length=1, max_length=80)
+    description: str = Field(default="")
+    pattern: str | KegelPattern | RectanglePattern = Field(
+        default="house_shot_approx",
+        description="Oil pattern: a preset name (bowlrec patterns list) or a pattern sheet.",
+    )
+    games: int = Field(default=3, ge=1, le=MAX_GAMES, description=f"Games, in [1, {MAX_GAMES}].")
+    seed: int = Field(default=0, ge=0, description="Seed of the release scatter, >= 0.")
+    bowlers: list[SessionBowler] = Field(
+        min_length=1, max_length=MAX_BOWLERS, description=f"1 to {MAX_BOWLERS} bowlers."
+    )
+    pocket: Pocket = Field(
+        default_factory=lambda: POCKET,
+        description=(
+            "The pocket window: a first ball entering it is a strike (ends the frame), and "
+            "aiming bowlers aim at its board."
+        ),
+    )
+    transfer: TransferModel = Field(default_factory=lambda: TransferModel())
+    grid: OilGridSpec = Field(default_factory=lambda: OilGridSpec())
+    oil_friction: OilFrictionMapping | None = Field(
+        default=None,
+        description=(
+            "Oil film -> friction; default: the power ramp referenced to the fresh pattern's "
+            "thickest film in the heads (module docstring)."
+        ),
+    )
+    record_dt_s: PositiveFloat = Field(
+        default=0.005,
+        ge=1e-4,
+        le=0.05,
+        description="Sampling interval of each shot's recorded path (s), in [1e-4, 0.05].",
+    )
+
+    @field_validator("pattern")
+    @classmethod
+    def _known_pattern(
+        cls, pattern: str | KegelPattern | RectanglePattern
+    ) -> str | KegelPattern | RectanglePattern:
+        if isinstance(pattern, str) and pattern not in preset_names():
+            raise spec_error(
+                f"pattern = {pattern!r} is not a preset; presets: {', '.join(preset_names())}"
+            )
+        return pattern
+
+    @model_validator(mode="after")
+    def _distinct_names(self) -> SessionSpec:
+        names = [b.name for b in self.bowlers]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise spec_error(f"bowlers: names must differ ({', '.join(dup)} given twice)")
+        lane = self.bowlers[0].scene.lane
+        for i, b in enumerate(self.bowlers[1:], start=1):
+            if b.scene.lane != lane:
+                raise spec_error(
+                    f"bowlers[{i}].scene.lane = {b.scene.lane.model_dump()} differs from "
+                    f"bowlers[0]'s {lane.model_dump()}: a session is one lane"
+                )
+        return self
+
+    def pattern_model(self) -> KegelPattern | RectanglePattern:
+        """The oil pattern as a model (a preset loaded by name)."""
+        return preset(self.pattern) if isinstance(self.pattern, str) else self.pattern
+
+    def session_id(self) -> str:
+        """SHA-256 (hex, 20 digits) of the session's canonical JSON: what every shot's run ID
+        is bound to (a session with any other input has other shots)."""
+        text = json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def _inline_scenes(data: dict[str, Any], base_dir: Path) -> dict[str, Any]:
+    """``data`` with every bowler's scene path replaced by the file's mapping."""
+    out = dict(data)
+    bowlers = out.get("bowlers")
+    if not isinstance(bowlers, list):
+        return out
+    resolved = []
+    for i, b in enumerate(bowlers):
+        if isinstance(b, dict) and isinstance(b.get("scene"), str):
+            path = base_dir / b["scene"]
+            try:
+                scene = read_mapping(path)
+            except (OSError, InputError) as err:
+                raise SceneInputError(f"bowlers[{i}].scene: {path}: {err}") from None
+            b = {**b, "scene": scene}
+        resolved.append(b)
+    out["bowlers"] = resolved
+    return out
+
+
+def expand_sessions(data: object, base_dir: str | Path = ".") -> list[SessionSpec]:
+    """The sessions of a session file: the session itself, or with a ``sweep`` (the blocks of a
+    job file, :mod:`bowlrec.batch.job`, whose paths address session fields, e.g.
+    ``transfer.pickup_fraction`` or ``seed``) one session per point, named ``NAME-1``,
+    ``NAME-2``, ... (at most :data:`MAX_SESSIONS`). SceneInputError / JobError naming the
+    problem otherwise."""
+    if not isinstance(data, dict) or "sweep" not in data:
+        return [parse_session(data, base_dir)]
+    from pydantic import TypeAdapter
+
+    from bowlrec.batch.job import Sweep
+    from bowlrec.batch.paths import apply_override
+    from bowlrec.errors import JobError
+
+    rest = {k: v for k, v in data.items() if k != "sweep"}
+    base = parse_session(rest, base_dir).model_dump(mode="json")
+    try:
+        blocks = TypeAdapter(Sweep | list[Sweep]).validate_python(data["sweep"])
+    except ValidationError as err:
+        raise JobError("sweep: " + format_validation_error(err)) from None
+    blocks = blocks if isinstance(blocks, list) else [blocks]
+    count = sum(b.count() for b in blocks)
+    if count > MAX_SESSIONS:
+        raise JobError(f"sweep: {count:,} sessions; at most {MAX_SESSIONS:,} per file")
+    specs = []
+    points = [p for b in blocks for p in b.points()]
+    for i, point in enumerate(points, start=1):
+        mapping = json.loads(json.dumps(base))
+        for path, value in point.items():
+            apply_override(mapping, path, value)
+        mapping["name"] = f"{base['name']}-{i}"
+        specs.append(parse_session(mapping, base_dir))
+    return specs
+
+
+def parse_session(data: object, base_dir: str | Path = ".") -> SessionSpec:
+    """A validated session from a mapping (scene paths relative to ``base_dir``); a
+    SceneInputError with one line per problem otherwise."""
+    if not isinstance(data, dict):
+        raise SceneInputError("a session file holds a mapping (format: bowlrec-session)")
+    fmt_ = data.get("format", SESSION_FORMAT)
+    if fmt_ != SESSION_FORMAT:
+        raise SceneInputError(f"format = {fmt_!r}: a session file has format {SESSION_FORMAT!r}")
+    try:
+        return SessionSpec.model_validate(_inline_scenes(data, Path(base_dir)))
+    except ValidationError as err:
+        raise SceneInputError(format_validation_error(err)) from None
+
+
+def load_session(path: str | Path) -> SessionSpec:
+    """A session file (JSON or YAML) without a sweep, validated (:func:`parse_session`)."""
+    p = Path(path)
+    return parse_session(read_mapping(p), p.parent)
+
+
+def load_sessions(path: str | Path) -> list[SessionSpec]:
+    """The sessions of a session file (JSON or YAML; :func:`expand_sessions`)."""
+    p = Path(path)
+    return expand_sessions(read_mapping(p), p.parent)
