@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -413,3 +414,38 @@ def test_record_terms_has_tau_ext_only_when_on() -> None:
         {"options": {"record": "rate", "record_dt_s": 0.05, "record_terms": True}}
     )
     assert "tau_ext" not in solve(flat.resolve()).torques_Nm
+
+
+def test_default_scenes_are_bit_identical_to_the_tree_without_the_terms() -> None:
+    """Summaries (every metric, exact), right-hand-side counts and sample digests of the Table
+    III cases, the bowler examples, the default scene and 20 random offset balls, in four record
+    modes, equal those of commit 86ab6d9 (``tests/fixtures/kernel-fingerprint-86ab6d9.json``,
+    extracted from ``tools/kernel_fingerprint.py`` run on that tree). A deliberate change of the
+    default physics fails here: rewrite the fixture then (``tools/kernel_fingerprint.py
+    --subset``), with a note in the changelog."""
+    import json
+
+    from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
+    from tools.kernel_fingerprint import _digest, _summary, deliveries
+
+    expected = json.loads(
+        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
+    )
+    plans = dict(deliveries())
+    checked = 0
+    for key, want in expected["summaries"].items():
+        name, mode = key.split("|")
+        plan = plans[name]
+        if mode == "summary-auto":
+            traj = solve(plan)
+        elif mode == "summary-integrator":
+            traj = solve(plan, method="integrator")
+        elif mode == "steps":
+            traj = solve(dataclasses.replace(plan, record_mode=RECORD_STEPS))
+        else:
+            traj = solve(dataclasses.replace(plan, record_mode=RECORD_RATE, record_dt_s=2e-3))
+        assert _summary(traj) == want, key
+        if key in expected["digests"]:
+            assert _digest(traj) == expected["digests"][key], key
+        checked += 1
+    assert checked == 236

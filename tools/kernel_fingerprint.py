@@ -2,6 +2,7 @@
 
     PYTHONPATH=TREE python tools/kernel_fingerprint.py OUT.json [--quick]
     python tools/kernel_fingerprint.py --compare A.json B.json
+    python tools/kernel_fingerprint.py --subset FULL.json tests/fixtures/kernel-fingerprint-*.json
 
 A developer script: a change to ``bowlrec/core`` that must not change default results is run
 here before and after (the "before" tree checked out with ``git worktree add``, run with
@@ -174,14 +175,39 @@ def compare(a_path: str, b_path: str) -> int:
     return 0 if bad == 0 else 1
 
 
+def subset(full_path: str, fixture_path: str, source: str) -> int:
+    """Rewrite the test fixture ``fixture_path`` (the subset of summaries and digests that
+    ``tests/test_external_terms.py`` checks) with the values of the fingerprint ``full_path``:
+    the same keys, new values (after a deliberate change of the default physics)."""
+    full = json.loads(Path(full_path).read_text())
+    old = json.loads(Path(fixture_path).read_text())
+    new = {
+        "source": source,
+        "summaries": {k: full["summaries"][k] for k in old["summaries"]},
+        "digests": {k: full["digests"][k] for k in old["digests"]},
+    }
+    Path(fixture_path).write_text(json.dumps(new, indent=0, sort_keys=True))
+    print(f"{fixture_path}: {len(new['summaries'])} summaries, {len(new['digests'])} digests")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("out", nargs="?", help="JSON file to write")
     ap.add_argument("--quick", action="store_true", help="20 random deliveries instead of 200")
     ap.add_argument("--compare", nargs=2, metavar=("A", "B"), help="compare two fingerprints")
+    ap.add_argument(
+        "--subset",
+        nargs=2,
+        metavar=("FULL", "FIXTURE"),
+        help="rewrite a test fixture's keys from a full fingerprint",
+    )
+    ap.add_argument("--source", default="", help="with --subset: where FULL was computed")
     args = ap.parse_args(argv)
     if args.compare:
         return compare(*args.compare)
+    if args.subset:
+        return subset(*args.subset, args.source)
     if not args.out:
         ap.error("OUT.json is required")
     import bowlrec

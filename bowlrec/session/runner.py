@@ -157,6 +157,8 @@ class _Session:
         self.spec = spec
         self.session_id = spec.session_id()
         pattern = spec.pattern_model()
+        #: the lane's pattern label in the archive's index: the preset's name, or the sheet's
+        self.pattern_name = spec.pattern if isinstance(spec.pattern, str) else pattern.name
         first = spec.bowlers[0].scene.lane
         self.length_m = first.length_m
         self.width_m = first.width_m
@@ -212,9 +214,8 @@ class _Session:
             coverstock=scene.ball.coverstock,
             surface=scene.ball.surface,
             mapping=self.mapping,
+            name=self.pattern_name,
         )
-        if isinstance(self.spec.pattern, str):
-            friction = friction.model_copy(update={"pattern": self.spec.pattern})
         return scene.lane.to_physical(friction)
 
     def shot_scene(self, bowler: _Bowler, shot: int) -> Scene:
