@@ -26,7 +26,8 @@ from .codes import LIFT_NONE, RECORD_STEPS, SLIDE_TO_ROLL_EXACT
 
 #: Plan fields of the optional external terms: a Plan at their defaults is a flat lane in still
 #: air without rolling resistance, and its run ID and stored resolved fields leave them out
-#: (:func:`external_field_at_default`), as they were before these fields existed
+#: (:func:`external_field_at_default`), so a scene that does not use them keeps the run ID
+#: archived runs of the same scene have
 EXTERNAL_FIELDS = (
     "drag_coefficient",
     "air_density_kg_m3",
