@@ -197,7 +197,8 @@ class StoredRecord:
     attrs: dict[str, Any]
     #: the run's per-run columns (RUN_STRING_COLUMNS, RUN_FLOAT_COLUMNS, created_at_ns)
     columns: dict[str, Any]
-    #: the run's per-run record groups (format 2.1): group -> {dataset: the run's rows}
+    #: the run's per-run record groups (format 2.1): group -> {dataset: the run's rows}; only
+    #: the groups that have rows for this run
     records: dict[str, dict[str, NDArray[Any]]]
 
     def to_record(self) -> RunRecord:
@@ -223,7 +224,7 @@ class StoredRecord:
             trajectory={k: getattr(traj, k) for k in TRAJECTORY_FIELDS} if traj.n_samples else {},
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
-            records={g: dict(d) for g, d in self.records.items() if _has_rows(d)},
+            records={g: dict(d) for g, d in self.records.items()},
         )
 
 
@@ -465,9 +466,8 @@ class SegmentFile:
         columns: dict[str, Any] = {k: _text(r[k][0]) for k in RUN_STRING_COLUMNS}
         columns.update({k: float(r[k][0]) for k in RUN_FLOAT_COLUMNS})
         columns["created_at_ns"] = int(r["created_at_ns"][0])
-        return StoredRecord(
-            run_id, self.segment_id, row, scene.decode(), traj, attrs, columns, records
-        )
+        own = {g: d for g, d in records.items() if _has_rows(d)}
+        return StoredRecord(run_id, self.segment_id, row, scene.decode(), traj, attrs, columns, own)
 
     # -- every run -----------------------------------------------------------------------------
 

@@ -712,9 +712,8 @@ class Archive:
                 "scene_json": rec.scene_json,
             }
         )
-        records = {g: d for g, d in rec.records.items() if d and len(next(iter(d.values())))}
         return StoredRun(
-            run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs, records=records
+            run_id=run_id, scene=scene, trajectory=rec.trajectory, attrs=attrs, records=rec.records
         )
 
     def _segment(self, path: Path) -> Any:
