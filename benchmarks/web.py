@@ -162,13 +162,13 @@ def ensure_archive(archive_dir: Path, n_runs: int, n_bases: int) -> dict[str, An
 
 
 def add_real_runs(archive: Any, n: int = REAL_RUNS) -> dict[str, Any]:
-    """``n`` summary-only house-shot deliveries simulated as :meth:`Archive.simulate` does
-    (``bowlrec.api.run_plan``), in one segment. The synthetic runs' summaries are jittered, so
-    they cannot be re-recorded for a figure (the re-recorded summary is checked against the
-    stored one); the run, figure and Compare pages are measured on these."""
+    """``n`` summary-only house-shot deliveries simulated as :func:`bowlrec.api.simulate_into`
+    does (``bowlrec.core.solver.run_plan``), in one segment. The synthetic runs' summaries are
+    jittered, so they cannot be re-recorded for a figure (the re-recorded summary is checked
+    against the stored one); the run, figure and Compare pages are measured on these."""
     from benchmarks.archive import _scene, _solver
-    from bowlrec.api import run_plan
     from bowlrec.archive.run_id import run_id
+    from bowlrec.core.solver import run_plan
     from bowlrec.sinks.common import RunData
 
     _log(f"adding {n} real summary-only runs ...")

@@ -11,16 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
-#: version of the physics model and its numerics; part of every run's provenance and run ID. It
-#: changes whenever results change beyond rounding (CHANGELOG.md says what each version changed).
-PHYSICS_VERSION = "frohlich2004-dp54-3"
-#: version of the bowlers' layer (spec sheet, layout and PAP, delivery -> physical scene); part
-#: of every run's provenance. Version 2 places the PAP at +omega_hat for a right-hander, grip
-#: facing the bowler at release; in runs stored with 1 or without the field the PAP is at the
-#: other end of the axis, so their layout and side-weight labels describe the mirror-side ball
-#: (archive.provenance.bowler_layer_warning).
-BOWLER_LAYER_VERSION = 2
+from .versions import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
 
 if TYPE_CHECKING:
     from .api import simulate

@@ -1,15 +1,16 @@
-"""The one-call entry point: a scene (object, dict or file) in, a Trajectory out."""
+"""The front door: a scene (object, dict or file) in, a Trajectory out, or stored in an archive."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from .core.plan import Plan
 from .core.trajectory import Trajectory
-from .sinks.outcome import described
 from .spec import Scene, load_scene
+
+if TYPE_CHECKING:
+    from .archive import AddResult, Archive
+    from .archive.group_commit import GroupCommitter
 
 
 def as_scene(scene: Scene | dict[str, Any] | str | Path) -> Scene:
@@ -23,15 +24,50 @@ def as_scene(scene: Scene | dict[str, Any] | str | Path) -> Scene:
 
 def simulate(scene: Scene | dict[str, Any] | str | Path) -> Trajectory:
     """Simulate one delivery from release to its outcome; see :class:`Trajectory`."""
+    from .core.solver import run_plan
+
     return run_plan(as_scene(scene).resolve())
 
 
-def run_plan(
-    plan: Plan, method: str = "auto", stations_m: Sequence[float] = (), turns: bool = False
-) -> Trajectory:
-    """Simulate a resolved scene (:func:`bowlrec.core.solver.solve`, ``method``, observed
-    ``stations_m`` and ``turns`` as there) and tell its outcome in words (the summary's
-    ``message``)."""
-    from .core.solver import solve
+def simulate_into(
+    archive: Archive,
+    scene: Scene,
+    *,
+    ball_ref: str | None = None,
+    method: str = "auto",
+    group: GroupCommitter | None = None,
+) -> AddResult:
+    """Simulate ``scene`` and store it in ``archive``, unless its run ID is archived already
+    (then the stored trajectory is returned and nothing is simulated or written). A stored copy
+    found damaged is set aside and the scene simulated again. ``ball_ref`` ("name@version")
+    names the library ball the scene used (None: looked up by spec); ``method`` as in
+    :func:`bowlrec.core.solver.solve`; ``group``: a
+    :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs together
+    with those of other threads (a server's concurrent requests)."""
+    import time
 
-    return described(solve(plan, method, stations_m, turns), plan)
+    from .archive import AddResult, run_id
+    from .core.solver import run_plan, use_closed_form
+    from .errors import RunDamagedError
+    from .sinks.common import RunData
+
+    plan = scene.resolve()
+    rid = run_id(plan)
+    found = archive.locate(rid)
+    if found is not None:
+        try:
+            return AddResult(rid, found[2], False, archive.load(rid).trajectory)
+        except RunDamagedError as err:
+            archive.set_aside(rid, found[0], f"damaged: {err.reason}")
+    start = time.perf_counter()
+    traj = run_plan(plan, method)
+    wall = time.perf_counter() - start
+    used = (
+        method if method != "auto" else ("closed_form" if use_closed_form(plan) else "integrator")
+    )
+    run = RunData(scene, plan, traj, rid)
+    if group is not None and traj.n_samples == 0:
+        record = archive.record(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)
+        added, path = group.add(record)
+        return AddResult(rid, path, added, traj)
+    return archive.add(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)

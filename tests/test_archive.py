@@ -13,6 +13,7 @@ import h5py
 import numpy as np
 import pytest
 
+from bowlrec.api import simulate_into
 from bowlrec.archive import Archive, SegmentFile, run_id
 from bowlrec.errors import (
     ArchiveError,
@@ -150,8 +151,8 @@ def test_failed_write_leaves_nothing(tmp_path: Path, template_run: RunData) -> N
 
 def test_simulating_the_same_scene_twice_stores_one_run(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    first = archive.simulate(_scene())
-    again = archive.simulate(_scene().model_copy(update={"name": "renamed"}))
+    first = simulate_into(archive, _scene())
+    again = simulate_into(archive, _scene().model_copy(update={"name": "renamed"}))
     assert first.added and not again.added
     assert first.run_id == again.run_id == run_id(_scene().resolve())
     assert len(archive) == 1
@@ -173,7 +174,7 @@ def test_run_ids_change_with_any_parameter_and_the_physics_version() -> None:
 
 def test_load_returns_what_was_written(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    added = archive.simulate(_scene())
+    added = simulate_into(archive, _scene())
     stored = archive.load(added.run_id[:8])
     assert stored.scene == _scene()
     assert added.trajectory is not None
@@ -188,11 +189,11 @@ def test_queries_filter_by_summary_ranges_outcome_pattern_and_ball(tmp_path: Pat
     entry, created = archive.balls.add("case16-ball", _scene().ball)
     assert created and entry.version == 1
     speeds = [7.0, 8.0, 9.0, 10.0]
-    ids = {v: archive.simulate(_scene(speed_mps=v)).run_id for v in speeds}
+    ids = {v: simulate_into(archive, _scene(speed_mps=v)).run_id for v in speeds}
     gutter = Scene.model_validate(
         {"delivery": {"takeoff_angle_deg": 5.0}, "options": {"record": "summary"}}
     )
-    archive.simulate(gutter)
+    simulate_into(archive, gutter)
     rows = archive.list_runs()
     assert len(rows) == 5
     hooks = {r["run_id"]: r["hook_m"] for r in rows}
@@ -217,14 +218,14 @@ def test_queries_filter_by_summary_ranges_outcome_pattern_and_ball(tmp_path: Pat
 
 def test_runs_made_before_the_ball_was_added_are_found_by_spec(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    rid = archive.simulate(_scene()).run_id
+    rid = simulate_into(archive, _scene()).run_id
     archive.balls.add("later", _scene().ball)
     assert [r["run_id"] for r in archive.list_runs(ball="later")] == [rid]
 
 
 def test_remove_export_and_prefix_lookup(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    rid = archive.simulate(_scene()).run_id
+    rid = simulate_into(archive, _scene()).run_id
     out = archive.export(rid[:6], tmp_path)
     assert read_run_file(out).run_id == rid
     with pytest.raises(RunNotFoundError, match="no run"):
@@ -237,7 +238,7 @@ def test_remove_export_and_prefix_lookup(tmp_path: Path) -> None:
 
 def test_reindex_rebuilds_the_index_from_the_run_files(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    ids = {archive.simulate(_scene(speed_mps=v)).run_id for v in (7.0, 8.0)}
+    ids = {simulate_into(archive, _scene(speed_mps=v)).run_id for v in (7.0, 8.0)}
     rows = {r["run_id"]: r for r in archive.list_runs()}
     (tmp_path / "a" / "index.sqlite").unlink()
     for extra in ("index.sqlite-wal", "index.sqlite-shm"):
@@ -301,9 +302,9 @@ def test_ball_library_export_import_round_trip(tmp_path: Path) -> None:
 def test_runs_reference_the_library_ball_they_used(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
     archive.balls.add("house", _scene().ball)
-    rid = archive.simulate(_scene()).run_id
+    rid = simulate_into(archive, _scene()).run_id
     assert archive.load(rid).ball_ref == "house@1"
-    explicit = archive.simulate(_scene(speed_mps=7.0), ball_ref="house@1").run_id
+    explicit = simulate_into(archive, _scene(speed_mps=7.0), ball_ref="house@1").run_id
     assert archive.row(explicit)["ball_name"] == "house"
 
 
@@ -521,7 +522,7 @@ def test_bowler_preset_runs_are_indexed_by_their_pattern(tmp_path: Path) -> None
     archive = Archive(tmp_path / "a")
     bowler = BowlerScene(pattern="kegel_chromium_6742", options={"record": "summary"})
     scene = bowler.to_scene()
-    rid = archive.simulate(scene).run_id
+    rid = simulate_into(archive, scene).run_id
     assert run_id(scene.resolve()) == run_id(
         scene.model_copy(
             update={
@@ -563,7 +564,7 @@ def test_committed_v1_fixture_archive_migrates_to_v2(tmp_path: Path) -> None:
         assert new.attrs["created_at"] == old.attrs["created_at"]
         _assert_same_trajectory(new.trajectory, old.trajectory)
         # re-running the same scene finds the migrated run: no duplicate
-        again = archive.simulate(old.scene)
+        again = simulate_into(archive, old.scene)
         assert again.run_id == row["run_id"] or again.added  # a new physics version, new ID
     assert migrate(copy)["already"] == "2.0"
 
@@ -614,7 +615,7 @@ def test_segments_and_exports_read_with_hdf5_1_10_tools(tmp_path: Path) -> None:
     h5dump = shutil.which("h5dump")
     assert h5dump is not None
     archive = Archive(tmp_path / "a")
-    stored = archive.load(archive.simulate(_scene()).run_id)
+    stored = archive.load(simulate_into(archive, _scene()).run_id)
     segment = next((tmp_path / "a" / "segments").glob("*.h5"))
     out = subprocess.run(
         [h5dump, "-d", "/summary/hook_m", "-d", "/trajectory/t_s", "-m", "%.17g", str(segment)],

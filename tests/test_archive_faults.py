@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 import bowlrec
+from bowlrec.api import simulate_into
 from bowlrec.archive import (
     Archive,
     ArchiveWriteError,
@@ -627,7 +628,7 @@ def test_full_disk(small_disk: Path, template: Template, tmp_path: Path) -> None
     assert "\n" not in message.strip(), message
     assert re.search(r"no space|disk full|ENOSPC", message, re.IGNORECASE), message
     with pytest.raises(ArchiveWriteError):
-        archive.simulate(_scene(7.3))
+        simulate_into(archive, _scene(7.3))
 
     scene_file = tmp_path / "scene.json"
     scene_file.write_text(_scene(7.1).model_dump_json())
@@ -653,7 +654,7 @@ def test_full_disk(small_disk: Path, template: Template, tmp_path: Path) -> None
     filler.unlink()
     assert fresh.add(_copy(template, 10), wall_time_s=0.0).added
     assert_same_trajectory(fresh.load(f"{10:020x}").trajectory, template.run.trajectory)
-    assert fresh.simulate(_scene(7.1)).added
+    assert simulate_into(fresh, _scene(7.1)).added
     assert len(fresh.list_runs()) == 5
 
 
@@ -902,7 +903,7 @@ def test_simulate_resimulates_a_damaged_copy(tmp_path: Path) -> None:
     returns a good run; the damaged copy is listed by damaged()."""
     archive = Archive(tmp_path / "a")
     scene = _scene(7.4, terms=True)
-    first = archive.simulate(scene)
+    first = simulate_into(archive, scene)
     assert first.added and first.trajectory is not None
     rid = first.run_id
     old_segment = first.path.stem
@@ -910,7 +911,7 @@ def test_simulate_resimulates_a_damaged_copy(tmp_path: Path) -> None:
     with pytest.raises(RunDamagedError):
         archive.load(rid)
 
-    again = archive.simulate(scene)
+    again = simulate_into(archive, scene)
     assert again.run_id == rid
     assert again.added, "the damaged copy was returned instead of a new simulation"
     assert again.trajectory is not None
@@ -920,7 +921,7 @@ def test_simulate_resimulates_a_damaged_copy(tmp_path: Path) -> None:
     assert_same_trajectory(fresh.load(rid).trajectory, want)
     assert _listed(fresh) == [rid]
     assert [(d["run_id"], d["segment_id"]) for d in fresh.damaged()] == [(rid, old_segment)]
-    third = fresh.simulate(scene)
+    third = simulate_into(fresh, scene)
     assert not third.added and third.trajectory is not None
     assert_same_trajectory(third.trajectory, want)
 

@@ -26,8 +26,8 @@ from bowlrec.bowling.legality import (
     check_legality,
     ensure_legal,
 )
-from bowlrec.bowling.units import IN_M, LB_KG, OZ_KG
 from bowlrec.spec import Ball
+from bowlrec.units import IN_M, LB_KG, OZ_KG
 
 _BASE: dict[str, Any] = {
     "name": "Test",

@@ -19,10 +19,10 @@ from bowlrec.bowling.delivery import (
     omega_from_axis,
 )
 from bowlrec.bowling.lane import BowlerLane, Handedness
-from bowlrec.bowling.units import FT_M, IN_M, MPH_MPS, RPM_RADPS
 from bowlrec.core.codes import N_STATE
 from bowlrec.core.dynamics import N_PAR, P_R, slip
 from bowlrec.spec import Ball, Delivery, Scene
+from bowlrec.units import FT_M, IN_M, MPH_MPS, RPM_RADPS
 
 LANE = BowlerLane()
 RADIUS_M = 0.1085

@@ -33,11 +33,11 @@ from bowlrec.bowling.oil_friction import (
     pattern_friction,
     pattern_lane,
 )
-from bowlrec.bowling.units import FT_M, IN_M
 from bowlrec.paper import paper_scene
 from bowlrec.spec import Lane, Scene, TypicalFriction, format_validation_error
 from bowlrec.spec.friction import GridFriction
 from bowlrec.spec.friction_grid import build_friction_grid, mu_at
+from bowlrec.units import FT_M, IN_M
 
 W42 = 42 * IN_M  # the paper's lane width (m)
 W415 = 41.5 * IN_M  # USBC nominal width (m)

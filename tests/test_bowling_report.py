@@ -11,10 +11,10 @@ from bowlrec.api import simulate
 from bowlrec.bowling.delivery import BowlerDelivery, hooking_delivery
 from bowlrec.bowling.lane import BowlerLane, Handedness
 from bowlrec.bowling.report import BowlerReport, bowler_report, observed_run
-from bowlrec.bowling.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import SamplesRequiredError
 from bowlrec.spec import Ball, Scene
+from bowlrec.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
 LANE = BowlerLane()
 RADIUS_M = 0.1085

@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from bowlrec.api import simulate_into
 from bowlrec.cli import app
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -171,7 +172,7 @@ def archive_of_25(tmp_path_factory: pytest.TempPathFactory) -> Path:
                 "options": {"record": "summary"},
             }
         )
-        archive.simulate(scene)
+        simulate_into(archive, scene)
     return root
 
 

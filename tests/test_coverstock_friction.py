@@ -36,10 +36,10 @@ from bowlrec.bowling.surface import (
     Surface,
     check_surface,
 )
-from bowlrec.bowling.units import IN_M
 from bowlrec.errors import SceneInputError
 from bowlrec.scene_input import parse_scene
 from bowlrec.spec import format_validation_error
+from bowlrec.units import IN_M
 from tools.readme_blocks import read_block
 
 ROOT = Path(__file__).resolve().parents[1]

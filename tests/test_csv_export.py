@@ -23,8 +23,8 @@ from bowlrec.core.trajectory import Summary, Trajectory, sample_columns
 from bowlrec.sinks import RunData
 from bowlrec.sinks.csv_file import RUN_COLUMNS, cell, write_csv, write_csv_many
 from bowlrec.sinks.registry import sink_for
-from bowlrec.sinks.units import units_for
 from bowlrec.spec import Scene
+from bowlrec.units import units_for
 
 runner = CliRunner()
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 from pathlib import Path
 
+from bowlrec.api import simulate_into
 from bowlrec.archive import Archive
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import ArchiveWriteError
@@ -41,7 +42,7 @@ def test_concurrent_runs_share_segments_and_all_are_indexed(tmp_path: Path) -> N
     archive = Archive(tmp_path / "a")
     group = GroupCommitter(archive).start()
     try:
-        results = _run_threads(24, lambda i: archive.simulate(_scene(i), group=group))
+        results = _run_threads(24, lambda i: simulate_into(archive, _scene(i), group=group))
     finally:
         group.close()
     assert all(r.added for r in results)
@@ -59,7 +60,7 @@ def test_the_same_scene_from_many_threads_is_added_once(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
     group = GroupCommitter(archive).start()
     try:
-        results = _run_threads(12, lambda i: archive.simulate(_scene(0), group=group))
+        results = _run_threads(12, lambda i: simulate_into(archive, _scene(0), group=group))
     finally:
         group.close()
     assert sum(r.added for r in results) == 1
@@ -69,7 +70,7 @@ def test_the_same_scene_from_many_threads_is_added_once(tmp_path: Path) -> None:
 
 def test_a_failed_write_reaches_every_waiter_and_loses_nothing(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
-    kept = archive.simulate(_scene(100))
+    kept = simulate_into(archive, _scene(100))
     group = GroupCommitter(archive).start()
 
     def broken(*args: object, **kwargs: object) -> None:
@@ -77,7 +78,9 @@ def test_a_failed_write_reaches_every_waiter_and_loses_nothing(tmp_path: Path) -
 
     archive.seal = broken  # type: ignore[method-assign,assignment]
     try:
-        errors = _run_threads(6, lambda i: _error(lambda: archive.simulate(_scene(i), group=group)))
+        errors = _run_threads(
+            6, lambda i: _error(lambda: simulate_into(archive, _scene(i), group=group))
+        )
     finally:
         group.close()
     assert all(isinstance(e, ArchiveWriteError) for e in errors)
@@ -97,11 +100,11 @@ def test_recorded_runs_are_not_grouped(tmp_path: Path) -> None:
     group = GroupCommitter(archive).start()
     scene = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.01}})
     try:
-        res = archive.simulate(scene, group=group)
+        res = simulate_into(archive, scene, group=group)
     finally:
         group.close()
     assert res.added and group.commits == 0
-    late = archive.simulate(_scene(5), group=group)  # after close: committed on its own
+    late = simulate_into(archive, _scene(5), group=group)  # after close: committed on its own
     assert late.added and archive.has_run(late.run_id)
 
 
@@ -109,6 +112,6 @@ def test_a_committer_never_started_starts_on_first_use(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "a")
     group = GroupCommitter(archive)
     try:
-        assert archive.simulate(_scene(7), group=group).added and group.commits == 1
+        assert simulate_into(archive, _scene(7), group=group).added and group.commits == 1
     finally:
         group.close()

@@ -23,7 +23,6 @@ from bowlrec.batch.job import MAX_HYPERCUBE_VALUES, MAX_JOB_RUNS, JobSpec, load_
 from bowlrec.bowling.ball import MAX_DIAMETER_IN, MAX_WEIGHT_LB
 from bowlrec.bowling.delivery import MAX_REV_RATE_RPM, MAX_SPEED_MPH
 from bowlrec.bowling.lane import MAX_LANE_FT
-from bowlrec.bowling.units import FT_M, IN_M, LB_KG, MPH_MPS, RPM_RADPS
 from bowlrec.cli import app
 from bowlrec.core.plan import Plan
 from bowlrec.errors import JobError, SceneInputError, SpecFileError
@@ -33,6 +32,7 @@ from bowlrec.session.spec import load_session
 from bowlrec.spec import Scene, format_validation_error
 from bowlrec.spec import limits as L
 from bowlrec.spec.loading import MAX_NESTING, read_mapping
+from bowlrec.units import FT_M, IN_M, LB_KG, MPH_MPS, RPM_RADPS
 
 ROOT = Path(__file__).resolve().parents[1]
 runner = CliRunner()

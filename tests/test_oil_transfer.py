@@ -27,8 +27,8 @@ from bowlrec.bowling.oil_transfer import (
     session_oil_grid,
     track_coverage,
 )
-from bowlrec.bowling.units import BOARDS, FT_M, IN_M, LANE_WIDTH_IN
 from bowlrec.spec.friction import GridFriction
+from bowlrec.units import BOARDS, FT_M, IN_M, LANE_WIDTH_IN
 
 W = LANE_WIDTH_IN * IN_M
 BW = W / BOARDS

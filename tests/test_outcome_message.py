@@ -13,13 +13,12 @@ from pathlib import Path
 import pytest
 
 import bowlrec
-from bowlrec.api import run_plan
 from bowlrec.archive import Archive
 from bowlrec.batch import JobSpec, run_job
 from bowlrec.core.batch import EVENT_CAP
 from bowlrec.core.codes import RECORD_SUMMARY
-from bowlrec.core.solver import solve
-from bowlrec.sinks.outcome import outcome_message
+from bowlrec.core.outcome import outcome_message
+from bowlrec.core.solver import run_plan, solve
 from bowlrec.spec import Scene
 
 SUMMARY = {"record": "summary"}

@@ -17,10 +17,8 @@ import h5py
 import numpy as np
 import pytest
 
-from bowlrec.api import run_plan
 from bowlrec.archive import Archive, RunRecord, SegmentBuilder, SegmentFile
 from bowlrec.archive.balls import ball_sha
-from bowlrec.archive.provenance import environment
 from bowlrec.archive.run_id import canonical_plan, run_id
 from bowlrec.archive.store import pattern_label
 from bowlrec.batch import (
@@ -39,8 +37,9 @@ from bowlrec.batch.context import WriteTarget
 from bowlrec.batch.fastprep import FastSweep
 from bowlrec.batch.table import table_columns
 from bowlrec.core.batch import pack_plans
-from bowlrec.core.solver import solve, use_closed_form
+from bowlrec.core.solver import run_plan, solve, use_closed_form
 from bowlrec.core.summary import FLOAT_METRICS, INT_METRICS
+from bowlrec.provenance import environment
 from bowlrec.sinks import RunData
 from bowlrec.spec import Scene
 

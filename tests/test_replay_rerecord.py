@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from scene_builders import scene as scene_dict
 
+from bowlrec.api import simulate_into
 from bowlrec.archive import Archive
 from bowlrec.archive.replay import bowler_report_of, replay_data, rerecord_is_exact
 from bowlrec.bowling.scene import BowlerScene
@@ -44,7 +45,7 @@ def archive(tmp_path: Path) -> Archive:
 
 def test_summary_only_run_is_rerecorded_exactly(archive: Archive) -> None:
     scene = _bowler("right", record="summary")
-    added = archive.simulate(scene)
+    added = simulate_into(archive, scene)
     stored = archive.run_data(added.run_id)
     assert stored.trajectory.n_samples == 0
     assert rerecord_is_exact(stored.plan)
@@ -71,7 +72,7 @@ def test_summary_only_run_is_rerecorded_exactly(archive: Archive) -> None:
 
 def test_uniform_ball_is_checked_to_the_tolerance(archive: Archive) -> None:
     scene = Scene.model_validate(scene_dict(record="summary"))
-    added = archive.simulate(scene)  # the closed form: no steps
+    added = simulate_into(archive, scene)  # the closed form: no steps
     stored = archive.run_data(added.run_id)
     assert not rerecord_is_exact(stored.plan)
     run = replay_data(archive, added.run_id)
@@ -83,7 +84,7 @@ def test_uniform_ball_is_checked_to_the_tolerance(archive: Archive) -> None:
 
 
 def test_recorded_run_is_returned_unchanged(archive: Archive) -> None:
-    added = archive.simulate(_bowler("right"))
+    added = simulate_into(archive, _bowler("right"))
     stored = archive.run_data(added.run_id)
     run = replay_data(archive, added.run_id)
     assert run.provenance == stored.provenance
@@ -98,7 +99,7 @@ def test_changed_summary_raises_conflict(
 ) -> None:
     from dataclasses import replace
 
-    added = archive.simulate(_bowler("right", record="summary"))
+    added = simulate_into(archive, _bowler("right", record="summary"))
     real = Archive.run_data
 
     def tampered(self: Archive, run_id: str) -> RunData:
@@ -115,8 +116,8 @@ def test_changed_summary_raises_conflict(
 
 def test_other_physics_raises_conflict(archive: Archive, monkeypatch: pytest.MonkeyPatch) -> None:
     """A stored run whose scene gives another trajectory: the first differing field is named."""
-    added = archive.simulate(_bowler("right", record="summary"))
-    other = archive.run_data(archive.simulate(_bowler("left", record="summary")).run_id)
+    added = simulate_into(archive, _bowler("right", record="summary"))
+    other = archive.run_data(simulate_into(archive, _bowler("left", record="summary")).run_id)
     real = Archive.run_data
 
     def swapped(self: Archive, run_id: str) -> RunData:
@@ -131,7 +132,7 @@ def test_other_physics_raises_conflict(archive: Archive, monkeypatch: pytest.Mon
 def test_bowler_report_of_right_and_left_handers(archive: Archive) -> None:
     reports = {}
     for hand in ("right", "left"):
-        run = replay_data(archive, archive.simulate(_bowler(hand, record="summary")).run_id)
+        run = replay_data(archive, simulate_into(archive, _bowler(hand, record="summary")).run_id)
         report = bowler_report_of(run)
         assert report is not None
         reports[hand] = report
@@ -150,5 +151,5 @@ def test_bowler_report_of_right_and_left_handers(archive: Archive) -> None:
 
 
 def test_bowler_report_of_summary_only_run_is_none(archive: Archive) -> None:
-    run = archive.run_data(archive.simulate(_bowler("right", record="summary")).run_id)
+    run = archive.run_data(simulate_into(archive, _bowler("right", record="summary")).run_id)
     assert bowler_report_of(run) is None

@@ -17,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 import bowlrec
+from bowlrec.api import simulate_into
 from bowlrec.archive import Archive
 from bowlrec.cli import app
 from bowlrec.errors import InputError, MissingExtraError, UnknownFormatError
@@ -174,7 +175,7 @@ def test_archived_run_files_carry_the_stored_provenance(tmp_path: Path) -> None:
     from bowlrec.sinks.hdf5_run import read_run_file
 
     archive = Archive(tmp_path / "a")
-    rid = archive.simulate(Scene.model_validate(SAMPLED)).run_id
+    rid = simulate_into(archive, Scene.model_validate(SAMPLED)).run_id
     data = archive.run_data(rid)
     assert data.provenance is not None and data.provenance["segment_id"] == archive.locate(rid)[0]
     stored = read_run_file(archive.export(rid, tmp_path / "run.h5"))

@@ -31,6 +31,7 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not 
 
 from test_service import Server, start_server  # noqa: E402
 
+from bowlrec.api import simulate_into  # noqa: E402
 from bowlrec.archive import Archive  # noqa: E402
 from bowlrec.spec import Scene  # noqa: E402
 
@@ -69,7 +70,7 @@ def _populate(archive_dir: Path) -> list[str]:
                 "options": {"record": "summary"},
             }
         )
-        ids.append(archive.simulate(scene).run_id)
+        ids.append(simulate_into(archive, scene).run_id)
     gutter = Scene.model_validate(
         {
             "name": "gutter",
@@ -77,7 +78,7 @@ def _populate(archive_dir: Path) -> list[str]:
             "options": {"record": "summary"},
         }
     )
-    ids.append(archive.simulate(gutter).run_id)
+    ids.append(simulate_into(archive, gutter).run_id)
     from bowlrec.bowling.catalog import citation
     from bowlrec.bowling.layout import load_example_library
 

@@ -23,6 +23,7 @@ pytest.importorskip("jinja2")
 
 from test_service import Server, start_server  # noqa: E402
 
+from bowlrec.api import simulate_into  # noqa: E402
 from bowlrec.archive import Archive  # noqa: E402
 from bowlrec.errors import InputError  # noqa: E402
 from bowlrec.spec import Scene  # noqa: E402
@@ -45,8 +46,8 @@ def populated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str]
     """An archive of 12 summary-only runs (speeds 6.0..8.75 m/s) and one recorded run."""
     root = tmp_path_factory.mktemp("pages") / "archive"
     archive = Archive(root)
-    ids = [archive.simulate(_scene(f"s{i:02d}", 6.0 + 0.25 * i)).run_id for i in range(12)]
-    ids.append(archive.simulate(_scene("recorded", 7.25, "rate")).run_id)
+    ids = [simulate_into(archive, _scene(f"s{i:02d}", 6.0 + 0.25 * i)).run_id for i in range(12)]
+    ids.append(simulate_into(archive, _scene("recorded", 7.25, "rate")).run_id)
     archive.close()
     return root, ids
 
@@ -325,7 +326,7 @@ def test_a_token_server_shows_a_sign_in_page(tmp_path: Path) -> None:
 
 def test_bowlrec_ui_serves_on_loopback_and_stops_on_ctrl_c(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "ui")
-    archive.simulate(_scene("one", 7.0))
+    simulate_into(archive, _scene("one", 7.0))
     archive.close()
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["BOWLREC_TOKEN"] = TOKEN  # ignored by ui: loopback, no token

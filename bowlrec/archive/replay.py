@@ -50,7 +50,7 @@ def sampled_scene(scene: Scene, record_dt_s: float = DEFAULT_RECORD_DT_S) -> Sce
 def simulate_sampled(scene: Scene, record_dt_s: float = DEFAULT_RECORD_DT_S) -> RunData:
     """Simulate :func:`sampled_scene` (``scene``, ``record_dt_s``) now (not archived): a run
     with samples, without run ID or provenance."""
-    from bowlrec.api import run_plan
+    from bowlrec.core.solver import run_plan
     from bowlrec.sinks.common import RunData
 
     sampled = sampled_scene(scene, record_dt_s)
@@ -125,8 +125,8 @@ def replay_data(
     """
     from dataclasses import replace
 
-    from bowlrec.api import run_plan
     from bowlrec.core.codes import RECORD_RATE
+    from bowlrec.core.solver import run_plan
     from bowlrec.sinks.common import RunData
 
     stored = archive.run_data(archive.resolve_id(run_id))
@@ -170,7 +170,7 @@ def bowler_report_of(run: RunData) -> dict[str, Any] | None:
 
     from bowlrec.bowling.lane import BowlerLane, Handedness
     from bowlrec.bowling.report import bowler_report
-    from bowlrec.bowling.units import FT_M, IN_M
+    from bowlrec.units import FT_M, IN_M
 
     if run.trajectory.n_samples == 0:
         return None

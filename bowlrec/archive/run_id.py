@@ -13,7 +13,7 @@ import hashlib
 import json
 from typing import TYPE_CHECKING, Any
 
-from bowlrec import PHYSICS_VERSION
+from bowlrec.versions import PHYSICS_VERSION
 
 if TYPE_CHECKING:
     from bowlrec.core.plan import Plan

@@ -326,7 +326,7 @@ class SegmentBuilder:
     """Collects runs, then writes them as one sealed segment (:meth:`seal`).
 
     ``provenance``: the attributes shared by every run (see
-    :func:`bowlrec.archive.provenance.environment`). A run ID appended twice is stored once.
+    :func:`bowlrec.provenance.environment`). A run ID appended twice is stored once.
     Any process may build and seal segments; registering them in the index is
     :meth:`bowlrec.archive.Archive.register`'s work.
     """

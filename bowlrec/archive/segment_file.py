@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunDamagedError, SegmentError
-from bowlrec.sinks.units import DIMENSIONLESS, units_for
+from bowlrec.units import DIMENSIONLESS, units_for
 
 from .segment import (
     EVENT_FIELDS,

@@ -26,7 +26,6 @@ import json
 import os
 import sqlite3
 import threading
-import time
 from collections import OrderedDict
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -34,7 +33,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from bowlrec.archive.balls import parse_ball_ref
-from bowlrec.archive.provenance import environment
 from bowlrec.archive.run_id import run_id as content_id
 from bowlrec.archive.tombstones import Tombstone
 from bowlrec.atomic_files import atomic_path
@@ -48,6 +46,7 @@ from bowlrec.errors import (
     RunNotFoundError,
     SegmentError,
 )
+from bowlrec.provenance import environment
 from bowlrec.sinks.registry import sink_named
 
 from .balls import BallLibrary, ball_sha
@@ -69,7 +68,6 @@ if TYPE_CHECKING:
     from bowlrec.sinks.hdf5_run import StoredRun
     from bowlrec.spec import Scene
 
-    from .group_commit import GroupCommitter
     from .segment import RunRecord, SegmentBuilder, SegmentInfo, SummaryRuns
 
 __all__ = [
@@ -99,7 +97,7 @@ _ARCHIVE_ENTRIES = {
 
 @dataclass(frozen=True)
 class AddResult:
-    """What :meth:`Archive.add` or :meth:`Archive.simulate` did."""
+    """What :meth:`Archive.add` or :func:`bowlrec.api.simulate_into` did."""
 
     run_id: str
     #: the segment file that holds the run
@@ -433,46 +431,6 @@ class Archive:
             # another writer archived the same run first; this copy is a shadowed duplicate
             return AddResult(rid, found[2], False, run.trajectory)
         return AddResult(rid, info.path, True, run.trajectory)
-
-    def simulate(
-        self,
-        scene: Scene,
-        *,
-        ball_ref: str | None = None,
-        method: str = "auto",
-        group: GroupCommitter | None = None,
-    ) -> AddResult:
-        """Simulate ``scene`` and store it, unless its run ID is archived already (then the
-        stored trajectory is returned and nothing is simulated or written). A stored copy
-        found damaged is set aside and the scene simulated again. ``group``: a
-        :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs
-        together with those of other threads (a server's concurrent requests)."""
-        from bowlrec.api import run_plan
-        from bowlrec.core.solver import use_closed_form
-        from bowlrec.sinks.common import RunData
-
-        plan = scene.resolve()
-        rid = content_id(plan)
-        found = self.locate(rid)
-        if found is not None:
-            try:
-                return AddResult(rid, found[2], False, self.load(rid).trajectory)
-            except RunDamagedError as err:
-                self.set_aside(rid, found[0], f"damaged: {err.reason}")
-        start = time.perf_counter()
-        traj = run_plan(plan, method)
-        wall = time.perf_counter() - start
-        used = (
-            method
-            if method != "auto"
-            else ("closed_form" if use_closed_form(plan) else "integrator")
-        )
-        run = RunData(scene, plan, traj, rid)
-        if group is not None and traj.n_samples == 0:
-            record = self.record(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)
-            added, path = group.add(record)
-            return AddResult(rid, path, added, traj)
-        return self.add(run, wall_time_s=wall, ball_ref=ball_ref, solver=used)
 
     def set_aside(self, run_id: str, segment_id: str, reason: str) -> None:
         """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it

@@ -40,10 +40,10 @@ from bowlrec.core.codes import (
     RECORD_SUMMARY,
     ROLLING,
 )
+from bowlrec.core.outcome import outcome_message
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Event, summary_trajectory
 from bowlrec.errors import ArchiveWriteError
 from bowlrec.sinks.common import RunData
-from bowlrec.sinks.outcome import outcome_message
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import Scene
 
@@ -593,7 +593,7 @@ def _general_summary(
         events = _events(raw, j)
         traj = None
         if events is None:
-            from bowlrec.api import run_plan
+            from bowlrec.core.solver import run_plan
 
             assert prep.plan is not None
             traj = run_plan(prep.plan)
@@ -611,8 +611,7 @@ def _general_recorded(
     store: _Store,
     result: ChunkResult,
 ) -> None:
-    from bowlrec.api import run_plan
-    from bowlrec.core.solver import use_closed_form
+    from bowlrec.core.solver import run_plan, use_closed_form
 
     assert prep.plan is not None
     start = time.perf_counter()

@@ -29,9 +29,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pydantic_core
 
-from bowlrec import PHYSICS_VERSION
 from bowlrec.archive.run_id import RUN_ID_LENGTH, canonical_plan
 from bowlrec.batch.paths import apply_override
+from bowlrec.versions import PHYSICS_VERSION
 
 if TYPE_CHECKING:
     from bowlrec.core.batch import PackedPlans

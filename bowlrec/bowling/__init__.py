@@ -2,5 +2,5 @@
 bowlers, drillers and coaches use (lb, in, oz, mph, rpm, boards, ft, degrees).
 
 Everything here resolves to the physical :class:`~bowlrec.spec.Scene`; nothing reaches the
-kernel directly. Conversions are exact (``bowlrec.bowling.units``).
+kernel directly. Conversions are exact (``bowlrec.units``).
 """

@@ -1,6 +1,6 @@
 """A bowling ball as a manufacturer's spec sheet gives it, its markings, and its static weights.
 
-Units at this boundary: lb, in, oz (exact constants in :mod:`bowlrec.bowling.units`); everything
+Units at this boundary: lb, in, oz (exact constants in :mod:`bowlrec.units`); everything
 derived is SI (kg, m, kg m^2).
 
 Principal moments from the spec sheet (Frohlich 2004, Table I; domain notes Sec. 1.2)::
@@ -49,9 +49,9 @@ from bowlrec.spec._base import (
     fmt,
     spec_error,
 )
+from bowlrec.units import IN_M, LB_KG, OZ_KG
 
 from .surface import Coverstock
-from .units import IN_M, LB_KG, OZ_KG
 
 __all__ = [
     "FROHLICH_LEVER_ARM_M",

@@ -67,9 +67,9 @@ from bowlrec.spec._base import (
     fmt,
     spec_error,
 )
+from bowlrec.units import ARROWS_FT, BOARDS, FT_M, MPH_MPS, RPM_RADPS
 
 from .lane import BowlerLane, Handedness
-from .units import ARROWS_FT, BOARDS, FT_M, MPH_MPS, RPM_RADPS
 
 __all__ = [
     "BowlerDelivery",

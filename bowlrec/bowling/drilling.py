@@ -66,6 +66,7 @@ from pydantic import Field, model_validator
 from bowlrec.spec import Ball
 from bowlrec.spec._base import FiniteFloat, NonNegativeFloat, PositiveFloat, SpecModel, fmt
 from bowlrec.spec._base import spec_error as _spec_error
+from bowlrec.units import IN_M, LB_KG, OZ_KG
 
 from .ball import (
     BowlerBall,
@@ -78,7 +79,6 @@ from .ball import (
 )
 from .layout import PAP, GripAxes, Layout, grip_axes, place_ball
 from .legality import LegalityReport, RuleSetName, check_legality
-from .units import IN_M, LB_KG, OZ_KG
 
 __all__ = [
     "DrilledBall",

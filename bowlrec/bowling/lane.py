@@ -26,8 +26,15 @@ from pydantic import Field
 
 from bowlrec.spec import Friction, Lane
 from bowlrec.spec._base import PositiveFloat, SpecModel
-
-from .units import ARROWS_FT, BOARDS, FT_M, HEAD_PIN_BOARD, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
+from bowlrec.units import (
+    ARROWS_FT,
+    BOARDS,
+    FT_M,
+    HEAD_PIN_BOARD,
+    IN_M,
+    LANE_LENGTH_FT,
+    LANE_WIDTH_IN,
+)
 
 __all__ = [
     "ARROW_BOARDS",

@@ -56,8 +56,7 @@ from numpy.typing import NDArray
 from pydantic import Field, TypeAdapter, ValidationInfo, field_validator, model_validator
 
 from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, fmt, spec_error
-
-from .units import BOARDS, LANE_LENGTH_FT
+from bowlrec.units import BOARDS, LANE_LENGTH_FT
 
 __all__ = [
     "INNER_BOARDS",

@@ -50,6 +50,7 @@ from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, fmt, 
 from bowlrec.spec.friction import GridFriction
 from bowlrec.spec.friction_grid import simplify_grid
 from bowlrec.spec.lane import Lane
+from bowlrec.units import BOARDS, FT_M, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
 
 from .oil import KegelPattern, OilGrid, RectanglePattern, oil_grid
 from .surface import (
@@ -68,7 +69,6 @@ from .surface import (
     grit_factor,
     surface_text,
 )
-from .units import BOARDS, FT_M, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
 
 __all__ = [
     "COVERSTOCKS",

@@ -43,9 +43,9 @@ from numpy.typing import ArrayLike, NDArray
 from pydantic import Field
 
 from bowlrec.spec._base import NonNegativeFloat, SpecModel, fmt
+from bowlrec.units import BOARDS, FT_M, LANE_LENGTH_FT
 
 from .oil import KegelPattern, OilGrid, RectanglePattern, oil_grid
-from .units import BOARDS, FT_M, LANE_LENGTH_FT
 
 __all__ = [
     "TransferLedger",

@@ -59,10 +59,10 @@ from numpy.typing import NDArray
 from bowlrec.core.codes import OBS_END, OBS_RELEASE, OBS_TURN
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import SamplesRequiredError
+from bowlrec.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
 from .delivery import axis_angles_deg
 from .lane import BowlerLane, Handedness
-from .units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
 __all__ = [
     "ENTRY_FT",
@@ -146,7 +146,7 @@ def report_stations(lane: BowlerLane, release_x_m: float) -> list[float]:
 
 def observed_run(plan: Any, lane: BowlerLane) -> Trajectory:
     """Simulate ``plan`` (any recording) observing what :func:`bowler_report` reads."""
-    from bowlrec.api import run_plan
+    from bowlrec.core.solver import run_plan
 
     x0 = float(plan.position0_m[0])
     return run_plan(plan, "auto", report_stations(lane, x0), turns=True)

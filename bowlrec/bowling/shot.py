@@ -29,11 +29,11 @@ from bowlrec.errors import AimError
 from bowlrec.spec import Ball, Delivery, Lane, Scene
 from bowlrec.spec._base import fmt
 from bowlrec.spec.resolve import release_state
+from bowlrec.units import ARROWS_FT, FT_M
 
 from .delivery import BowlerDelivery
 from .drilling import DrilledBall
 from .layout import resolve_ball
-from .units import ARROWS_FT, FT_M
 
 if TYPE_CHECKING:
     from .scene import BowlerScene
@@ -120,7 +120,7 @@ class Shot:
         self, delivery: Delivery, stations_m: Sequence[float] = (), turns: bool = False
     ) -> Trajectory:
         """Summary-only run of ``delivery`` observing ``stations_m`` (x, m) and ``turns``."""
-        from bowlrec.api import run_plan
+        from bowlrec.core.solver import run_plan
 
         return run_plan(self.plan(delivery), "auto", stations_m, turns)
 

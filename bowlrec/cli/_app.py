@@ -44,7 +44,7 @@ def version_line() -> str:
     """``bowlrec X.Y.Z (physics N, bowler layer N; Python X.Y.Z)``: what ``--version``
     prints. The physics version is part of every run ID, so two installs with the same one
     give the same runs."""
-    from bowlrec import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
+    from bowlrec.versions import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
 
     return (
         f"bowlrec {__version__} (physics {PHYSICS_VERSION}, bowler layer "

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
+from bowlrec.api import simulate_into
 from bowlrec.errors import MissingExtraError
 from bowlrec.sinks.registry import sink_named
 
@@ -125,7 +126,7 @@ def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:
     def work(advance: Any) -> list[Any]:
         results = []
         for scene in scenes:
-            results.append(store.simulate(scene))
+            results.append(simulate_into(store, scene))
             if advance is not None:
                 advance(scene)
         return results

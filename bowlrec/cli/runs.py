@@ -161,7 +161,7 @@ def show(
         row = store.row(stored.run_id)
     events = [e.__dict__ for e in stored.trajectory.events]
     provenance = {k: v for k, v in stored.attrs.items() if k not in ("scene_json", "summary_json")}
-    from bowlrec.archive.provenance import bowler_layer_warning
+    from bowlrec.provenance import bowler_layer_warning
 
     warning = bowler_layer_warning(provenance)
     if as_json:

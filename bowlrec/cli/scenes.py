@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
+from bowlrec.api import simulate_into
 from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.errors import SceneInputError
 from bowlrec.scene_input import ParsedScene, parse_scene
@@ -90,7 +91,7 @@ def simulate(
             result = with_status(
                 "simulating (first run compiles kernels)",
                 quiet,
-                lambda: store.simulate(scene_obj, ball_ref=ball_ref),
+                lambda: simulate_into(store, scene_obj, ball_ref=ball_ref),
             )
             traj, run_id, added = result.trajectory, result.run_id, result.added
         else:
@@ -164,7 +165,7 @@ def _print_bowler(report: dict[str, Any]) -> None:
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
 
-    from bowlrec.api import run_plan
+    from bowlrec.core.solver import run_plan
 
     plan = scene.resolve()
     if not needs_samples:

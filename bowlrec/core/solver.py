@@ -38,6 +38,7 @@ from .codes import (
 from .derive import derive_samples
 from .dynamics import pack_params
 from .integrator import simulate_kernel
+from .outcome import described
 from .plan import Plan
 from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
@@ -337,9 +338,18 @@ def summarize(
     return summary_from_columns(cols, 0)
 
 
+def run_plan(
+    plan: Plan, method: str = "auto", stations_m: Sequence[float] = (), turns: bool = False
+) -> Trajectory:
+    """Simulate a resolved scene (:func:`solve`, ``method``, observed ``stations_m`` and
+    ``turns`` as there) and tell its outcome in words (the summary's ``message``,
+    :func:`bowlrec.core.outcome.described`)."""
+    return described(solve(plan, method, stations_m, turns), plan)
+
+
 def summary_from_columns(cols: dict[str, Any], i: int, message: str = "") -> Summary:
     """Row ``i`` of :func:`~bowlrec.core.summary.summary_columns` as a Summary (NaN -> None)
-    with ``message`` (the outcome in words: :func:`bowlrec.sinks.outcome.outcome_message`)."""
+    with ``message`` (the outcome in words: :func:`bowlrec.core.outcome.outcome_message`)."""
 
     def opt(name: str) -> float | None:
         v = float(cols[name][i])

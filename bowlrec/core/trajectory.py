@@ -52,8 +52,8 @@ class Summary:
     left); slide_m: x where rolling first starts (the release x for a ball released rolling,
     None if the ball never rolls). hook_m and pocket_deg are None unless the outcome is "pins".
     message: the outcome in one line of words. The core leaves it empty (it reports codes and
-    numbers); :func:`bowlrec.api.run_plan` and the batch engine fill it
-    (:func:`bowlrec.sinks.outcome.outcome_message`), so every archived or printed run has it.
+    numbers); :func:`bowlrec.core.solver.run_plan` and the batch engine fill it
+    (:func:`bowlrec.core.outcome.outcome_message`), so every archived or printed run has it.
     """
 
     outcome: str
@@ -222,7 +222,7 @@ def sample_columns(traj: Trajectory) -> dict[str, NDArray[Any]]:
     :meth:`Trajectory.arrays` with vectors split by component; the one column naming shared by
     the CSV file (:mod:`bowlrec.sinks.csv_file`) and :meth:`Trajectory.to_dataframe`.
 
-    Each name ends in its unit (:func:`bowlrec.sinks.units.units_for`) or is dimensionless:
+    Each name ends in its unit (:func:`bowlrec.units.units_for`) or is dimensionless:
     ``t_s``; ``x_m``, ``y_m``, ``z_m`` (center, lane frame); ``vx_mps`` ...; ``q_w``, ``q_x``,
     ``q_y``, ``q_z`` (body -> lane quaternion); ``omega_x_radps`` ...; ``phase`` (0 sliding,
     1 rolling); ``mu``; ``normal_force_N``; ``friction_x_N`` ...; ``slip_x_mps`` ...;

@@ -50,7 +50,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-import bowlrec
+from bowlrec.api import simulate, simulate_into
 from bowlrec.archive import Archive, parse_ball_ref
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import (
@@ -68,6 +68,7 @@ from bowlrec.errors import (
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import Scene
 from bowlrec.spec.errors import MAX_ECHO, format_errors, printable
+from bowlrec.versions import __version__
 from bowlrec.web import assets
 from bowlrec.web.api import ReplayCache, figures
 from bowlrec.web.pages import pages
@@ -232,7 +233,9 @@ def submit_scene(
     parsed = parse_scene_spec(scene, state.archive.balls)
     recorded = parsed.scene.options.record != "summary"
     with state.recordings.slot() if recorded else contextlib.nullcontext():
-        result = state.archive.simulate(parsed.scene, ball_ref=parsed.ball_ref, group=state.commits)
+        result = simulate_into(
+            state.archive, parsed.scene, ball_ref=parsed.ball_ref, group=state.commits
+        )
     if result.trajectory is None:  # pragma: no cover - simulate always returns it
         raise HTTPException(500, "the archive returned no trajectory")
     if not result.added:
@@ -620,9 +623,7 @@ def _warm_up() -> None:
     """Load the compiled kernels (numba's on-disk cache) before the first request."""
 
     for delivery in ({}, {"omega_radps": [-16.62, 23.74, 7.765]}):
-        bowlrec.simulate(
-            Scene.model_validate({"delivery": delivery, "options": {"record": "summary"}})
-        )
+        simulate(Scene.model_validate({"delivery": delivery, "options": {"record": "summary"}}))
 
 
 def create_app(
@@ -683,7 +684,7 @@ def create_app(
 
     app = FastAPI(
         title="bowlrec",
-        version=bowlrec.__version__,
+        version=__version__,
         summary="Bowling-ball motion simulator and trajectory archive",
         description=__doc__,
         lifespan=lifespan,
@@ -706,7 +707,7 @@ def create_app(
     @app.get("/health", response_model=Health, tags=["service"])
     def health() -> Health:
         """Liveness and the run count; never needs the token (the Host check applies)."""
-        return Health(version=bowlrec.__version__, runs=len(archive), auth=state.token is not None)
+        return Health(version=__version__, runs=len(archive), auth=state.token is not None)
 
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(request: Request, err: StarletteHTTPException) -> Response:

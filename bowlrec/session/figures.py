@@ -67,7 +67,7 @@ def oil_before_after_figure(before: OilGrid, after: OilGrid, *, title: str) -> F
     from matplotlib.figure import Figure
 
     from bowlrec.bowling.oil import board_volumes_ul
-    from bowlrec.bowling.units import BOARDS
+    from bowlrec.units import BOARDS
 
     after = _on_grid(after, before)
     d0, d1 = _density(before), _density(after)

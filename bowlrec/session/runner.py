@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bowlrec import PHYSICS_VERSION
 from bowlrec.archive.run_id import RUN_ID_LENGTH, canonical_plan
 from bowlrec.bowling.aim import aim
 from bowlrec.bowling.oil import OilGrid
@@ -54,6 +53,7 @@ from bowlrec.bowling.shot import Shot
 from bowlrec.bowling.variance import ReleaseScatter, draw_releases
 from bowlrec.errors import IllegalBallError
 from bowlrec.sinks.common import RunData
+from bowlrec.versions import PHYSICS_VERSION
 
 from .records import ShotState, oil_from_records, shot_records, state_from_records
 from .spec import SessionSpec
@@ -319,7 +319,7 @@ def _play(
     ball: int,
 ) -> ShotRow:
     """One shot: read back from the archive when it is there, else simulated and stored."""
-    from bowlrec.api import run_plan
+    from bowlrec.core.solver import run_plan
 
     scene = s.shot_scene(bowler, shot)
     plan = scene.resolve()

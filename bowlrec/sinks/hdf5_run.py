@@ -27,13 +27,13 @@ from typing import TYPE_CHECKING, Any
 import h5py
 import numpy as np
 
-from bowlrec.archive.provenance import environment
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunFileError
+from bowlrec.provenance import environment
+from bowlrec.units import DIMENSIONLESS, units_for
 
 from .common import RunData, dumps
-from .units import DIMENSIONLESS, units_for
 
 if TYPE_CHECKING:
     from bowlrec.spec import Scene
@@ -136,7 +136,7 @@ def write_run_file(
 ) -> Path:
     """Write ``run`` to ``path`` whole or not at all; ``attrs`` become root attributes.
 
-    ``attrs`` holds the provenance (see :mod:`bowlrec.archive.provenance`); values must be
+    ``attrs`` holds the provenance (see :mod:`bowlrec.provenance`); values must be
     str, int, float or bool. Returns the final path.
     """
     path = Path(path)

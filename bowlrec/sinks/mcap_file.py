@@ -67,10 +67,10 @@ from foxglove.messages import (
 )
 from numpy.typing import NDArray
 
-from bowlrec import PHYSICS_VERSION, __version__
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.codes import EVENT_KINDS
 from bowlrec.core.trajectory import Event, Trajectory
+from bowlrec.versions import PHYSICS_VERSION, __version__
 
 from .common import Array, RunData, friction_cells, markings_body, series_columns, summary_text
 

@@ -108,7 +108,7 @@ def pattern_figure(
     from matplotlib.figure import Figure
 
     from bowlrec.bowling.oil import board_volumes_ul, oil_grid, ratio
-    from bowlrec.bowling.units import BOARDS
+    from bowlrec.units import BOARDS
 
     grid = oil_grid(pattern)
     end_ft = max(grid.oil_end_ft, 1.0)

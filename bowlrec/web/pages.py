@@ -18,10 +18,10 @@ from fastapi import APIRouter, Request
 from fastapi.responses import HTMLResponse, Response
 from fastapi.templating import Jinja2Templates
 
-import bowlrec
 from bowlrec.archive.index import cell_text
 from bowlrec.core.codes import OUTCOMES
 from bowlrec.errors import BowlrecError, InputError
+from bowlrec.versions import __version__
 
 from .seeds import SEEDS
 from .tables import PAGE_SIZES, RANGES, RUN_COLUMNS, RunsQuery, runs_page
@@ -30,7 +30,7 @@ __all__ = ["TEMPLATES_DIR", "pages"]
 
 TEMPLATES_DIR = Path(__file__).parent / "templates"
 templates = Jinja2Templates(directory=str(TEMPLATES_DIR))
-templates.env.globals["version"] = bowlrec.__version__
+templates.env.globals["version"] = __version__
 
 pages = APIRouter(include_in_schema=False)
 

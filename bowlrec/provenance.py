@@ -9,7 +9,7 @@ import sys
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
-import bowlrec
+from bowlrec.versions import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
 
 __all__ = ["bowler_layer_warning", "environment"]
 
@@ -27,9 +27,9 @@ def _environment() -> tuple[tuple[str, str], ...]:
     import h5py
 
     return (
-        ("bowlrec_version", bowlrec.__version__),
-        ("physics_version", bowlrec.PHYSICS_VERSION),
-        ("bowler_layer_version", str(bowlrec.BOWLER_LAYER_VERSION)),
+        ("bowlrec_version", __version__),
+        ("physics_version", PHYSICS_VERSION),
+        ("bowler_layer_version", str(BOWLER_LAYER_VERSION)),
         ("python_version", sys.version.split()[0]),
         ("platform", platform.platform()),
         ("numpy_version", _version("numpy")),
@@ -49,13 +49,13 @@ def bowler_layer_warning(provenance: dict[str, Any]) -> str | None:
     ``bowler_layer_version`` in its provenance), else None."""
     made_with = provenance.get("bowler_layer_version")
     try:
-        current = made_with is not None and int(made_with) >= bowlrec.BOWLER_LAYER_VERSION
+        current = made_with is not None and int(made_with) >= BOWLER_LAYER_VERSION
     except (TypeError, ValueError):
         current = False
     if current:
         return None
     return (
-        f"made with bowler layer {made_with or '1'} (current: {bowlrec.BOWLER_LAYER_VERSION}): "
+        f"made with bowler layer {made_with or '1'} (current: {BOWLER_LAYER_VERSION}): "
         "if this run came from a bowler scene, its PAP was placed at the other end of the spin "
         "axis, so the layout and side-weight labels of that scene describe the mirror-side "
         "ball; the physics of the stored scene is unaffected"

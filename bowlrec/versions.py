@@ -1,0 +1,20 @@
+"""Version constants: the package, the physics model and the bowlers' layer.
+
+Every run's provenance and run ID carry them (:mod:`bowlrec.provenance`); this module imports
+nothing, so any layer may read them.
+"""
+
+from __future__ import annotations
+
+__all__ = ["BOWLER_LAYER_VERSION", "PHYSICS_VERSION", "__version__"]
+
+__version__ = "0.1.0"
+#: version of the physics model and its numerics; part of every run's provenance and run ID. It
+#: changes whenever results change beyond rounding (CHANGELOG.md says what each version changed).
+PHYSICS_VERSION = "frohlich2004-dp54-3"
+#: version of the bowlers' layer (spec sheet, layout and PAP, delivery -> physical scene); part
+#: of every run's provenance. Version 2 places the PAP at +omega_hat for a right-hander, grip
+#: facing the bowler at release; in runs stored with 1 or without the field the PAP is at the
+#: other end of the axis, so their layout and side-weight labels describe the mirror-side ball
+#: (:func:`bowlrec.provenance.bowler_layer_warning`).
+BOWLER_LAYER_VERSION = 2
