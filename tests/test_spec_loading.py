@@ -101,6 +101,7 @@ def test_dump_is_canonical() -> None:
     assert list(json.loads(text)) == sorted(json.loads(text))
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_spec_does_not_import_numba() -> None:
     code = (
         "import sys, bowlrec.spec, bowlrec.paper\n"

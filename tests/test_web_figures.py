@@ -9,7 +9,7 @@ import sys
 import xml.etree.ElementTree as ET
 
 import pytest
-from scene_builders import scene as scene_dict
+from helpers.scene_builders import scene as scene_dict
 
 from bowlrec.archive.replay import simulate_sampled
 from bowlrec.bowling.ball import BowlerBall
@@ -55,6 +55,7 @@ def runs() -> list[RunData]:
     return out
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_import_does_not_import_matplotlib() -> None:
     code = "import sys, bowlrec.web.figures; print('matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
