@@ -48,6 +48,7 @@ if TYPE_CHECKING:
     from bowlrec.spec import Scene
 
 __all__ = [
+    "BallEntryView",
     "BallLookup",
     "BallSource",
     "CheckedScene",
