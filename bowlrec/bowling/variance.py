@@ -2,7 +2,7 @@
 
 Each repeat draws the speed, rev rate, axis rotation, axis tilt, launch angle and laydown board
 from independent normal distributions around the scene's shot (the launch angle around the one
-that crosses the scene's target at the arrows: :class:`~bowlrec.bowling.shot.Shot`), and all
+that crosses the scene's target at the arrows: :class:`~bowlrec.bowling.scene.Shot`), and all
 repeats run at once in the many-delivery kernel (:func:`bowlrec.core.batch.run_batch`, summary
 only). Reported: the distribution of entry board and entry angle at the head pin line, the share
 of repeats that reach the pins and the share inside the pocket window
@@ -40,8 +40,7 @@ from bowlrec.spec._base import NonNegativeFloat, SpecModel, fmt
 
 from .delivery import BowlerDelivery
 from .pocket import POCKET, Pocket
-from .scene import BowlerScene
-from .shot import Shot
+from .scene import BowlerScene, Shot
 
 __all__ = [
     "draw_releases",

@@ -265,7 +265,7 @@ def schema(
 ) -> None:
     """Print the JSON Schema of a scene, bowler scene or batch job (for editors and
     validators), or write the schema files into a directory."""
-    from bowlrec.spec.schema_export import SCHEMAS, export_schemas
+    from .schemas import SCHEMAS, export_schemas
 
     if name is not None and name not in SCHEMAS:
         fail(f"schema {name!r}: there is no such schema; the schemas are {', '.join(SCHEMAS)}")
