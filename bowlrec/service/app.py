@@ -492,9 +492,11 @@ def open_session(
     return SessionInfo(auth=True, expires_at=when)
 
 
-@sessions.delete("", response_model=SessionClosed)
+@sessions.delete("", response_model=SessionClosed, dependencies=[Depends(_check_token)])
 def close_session(state: StateDep, request: Request, response: Response) -> SessionClosed:
-    """Close the session of the request's cookie (if any) and clear the cookie."""
+    """Close the session of the request's cookie and clear the cookie. On a server with a
+    token the request needs the session's cookie (valid) or the bearer token (401
+    otherwise)."""
     closed = state.sessions.close(request.cookies.get(COOKIE_NAME))
     response.delete_cookie(
         COOKIE_NAME, path="/", secure=_secure(request), httponly=True, samesite="strict"
@@ -640,12 +642,12 @@ def create_app(
     """The service for the archive at ``archive_dir`` (created if missing).
 
     Raises :class:`~bowlrec.service.jobs.JobsLockedError` when another live server uses the
-    archive. ``token``: when given, every request except ``/health``, the docs and ``POST
-    /session`` needs ``Authorization: Bearer <token>`` or the cookie of a session opened with
-    ``POST /session`` (401 otherwise). ``warm_up`` loads the kernels at start-up so the first
-    submission is not slower than the rest. Jobs simulate in the server process
-    (``job_workers`` 0), a local pool of ``job_workers`` processes, or on the dask.distributed
-    cluster at ``scheduler``.
+    archive. ``token``: when given, every request except ``/health``, the docs, the static
+    and viewer files and ``POST /session`` needs ``Authorization: Bearer <token>`` or the
+    cookie of a session opened with ``POST /session`` (401 otherwise). ``warm_up`` loads the
+    kernels at start-up so the first submission is not slower than the rest. Jobs simulate in
+    the server process (``job_workers`` 0), a local pool of ``job_workers`` processes, or on
+    the dask.distributed cluster at ``scheduler``.
 
     ``max_body_bytes``: request bodies longer than this get 413 (None: no limit; default 32
     MiB). ``allowed_hosts``: ``Host`` names accepted besides the loopback ones (requests
