@@ -580,7 +580,7 @@ def test_404_and_other_error_details_name_no_server_path(
                 "already archived was lost"
             )
 
-        monkeypatch.setattr(state.archive, "simulate", unwritable)
+        monkeypatch.setattr(state.commits, "add", unwritable)  # sealing the summary-only run
         r = client.post("/runs", json={"options": {"record": "summary"}})
         assert r.status_code == 507 and "ARCHIVE/segments: could not write" in r.json()["detail"]
         details.append(r.json()["detail"])

@@ -108,7 +108,7 @@ from .slots import RecordingSlots
 
 __all__ = ["create_app"]
 
-log = logging.getLogger("bowlrec.service")
+log = logging.getLogger(__name__)
 
 #: file kinds of ``GET /runs/{id}/files/{kind}``: sinks of :mod:`bowlrec.sinks.registry` by
 #: name, each with its media type
@@ -142,8 +142,15 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
+def status_for(err: BowlrecError) -> int:
+    """The HTTP status of ``err``'s category (:data:`STATUS_CODES`; 500 for none)."""
+    return next((code for kind, code in STATUS_CODES.items() if isinstance(err, kind)), 500)
+
+
 class _State:
-    """What the endpoints share: the archive, the jobs and per-file generation locks."""
+    """What the endpoints and the pages share: the archive, the jobs, per-file generation locks,
+    the sign-in check and the status of an error (the pages' :class:`bowlrec.web.pages.Host`).
+    """
 
     def __init__(
         self,
@@ -176,6 +183,20 @@ class _State:
         with self._mutex:
             return self._file_locks.setdefault(path, threading.Lock())
 
+    def signed_in(self, request: Request) -> bool:
+        """The one sign-in check of the API's routes and the pages: True on a server without a
+        token, for the bearer token, or for the cookie of an open session."""
+        if self.token is None:
+            return True
+        if bearer_matches(request.headers.get("authorization"), self.token):
+            return True
+        return self.sessions.valid(request.cookies.get(COOKIE_NAME))
+
+    @staticmethod
+    def status_for(err: BowlrecError) -> int:
+        """The HTTP status of ``err`` (:func:`status_for`)."""
+        return status_for(err)
+
 
 def _state(request: Request) -> _State:
     state: _State = request.app.state.bowlrec
@@ -189,13 +210,9 @@ def _check_token(
     request: Request,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> None:
-    """The bearer token or a valid session cookie (``POST /session``); 401 otherwise."""
-    state = _state(request)
-    if state.token is None:
-        return
-    if bearer_matches(request.headers.get("authorization"), state.token):
-        return
-    if state.sessions.valid(request.cookies.get(COOKIE_NAME)):
+    """The bearer token or a valid session cookie (``POST /session``): 401 unless
+    :meth:`_State.signed_in`."""
+    if _state(request).signed_in(request):
         return
     raise HTTPException(
         401,
@@ -206,11 +223,6 @@ def _check_token(
 
 
 StateDep = Annotated[_State, Depends(_state)]
-
-
-def status_for(err: BowlrecError) -> int:
-    """The HTTP status of ``err``'s category (:data:`STATUS_CODES`; 500 for none)."""
-    return next((code for kind, code in STATUS_CODES.items() if isinstance(err, kind)), 500)
 
 
 # -- runs ----------------------------------------------------------------------------------------
