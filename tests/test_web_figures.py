@@ -86,6 +86,50 @@ def test_import_does_not_import_matplotlib() -> None:
     assert out.stdout.strip() == "False"
 
 
+def test_matplotlib_only_in_the_figures_package_and_never_pyplot() -> None:
+    """Only ``bowlrec/figures/`` imports matplotlib, and nothing imports pyplot or switches
+    matplotlib's global backend (the service draws in several threads)."""
+    import ast
+    from pathlib import Path
+
+    import bowlrec
+
+    package = Path(bowlrec.__file__).parent
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        inside = path.relative_to(package).parts[0] == "figures"
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Attribute) and node.attr == "use":
+                names = [ast.unparse(node)]
+            for name in names:
+                global_state = "pyplot" in name or name == "matplotlib.use"
+                outside = name.split(".")[0] == "matplotlib" and not inside
+                if global_state or outside:
+                    found.append(f"{path.relative_to(package)}:{node.lineno}: {name}")
+    assert found == []
+
+
+def test_figures_render_the_same_bytes_in_threads_at_once() -> None:
+    """Threads drawing and rendering at once (as the service's do) get the bytes a single
+    render gives: nothing global is left half set."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def draw(k: int) -> bytes:
+        fmt = "svg" if k % 2 == 0 else "png"
+        return sweep_figure([1.0, 2.0, 3.0], [3.0, 1.0, 2.0], x_label="a", y_label="b", fmt=fmt)
+
+    expected = {0: draw(0), 1: draw(1)}
+    with ThreadPoolExecutor(8) as pool:
+        got = list(pool.map(draw, range(32)))
+    assert all(data == expected[k % 2] for k, data in enumerate(got))
+
+
 def test_run_figure_svg_is_deterministic_and_png_decodes(runs: list[RunData]) -> None:
     svg = run_figure(runs[0], "svg")
     _svg_root(svg)
