@@ -10,7 +10,8 @@ import pytest
 
 from bowlrec.bowling.oil import preset
 from bowlrec.bowling.oil_transfer import TransferModel, apply_track, session_oil_grid
-from bowlrec.session.figures import drift_figure, figure_bytes, oil_before_after_figure
+from bowlrec.figures.render import figure_bytes
+from bowlrec.figures.session import drift_figure, oil_before_after_figure
 from bowlrec.units import FT_M, IN_M, LANE_WIDTH_IN
 
 W = LANE_WIDTH_IN * IN_M

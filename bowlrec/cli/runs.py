@@ -405,8 +405,9 @@ def plot(
 ) -> None:
     """Paper-style figure of one or several runs overlaid (lane, oil, paths, rotation axes)."""
 
-    plots = sink_named("plot")
-    plot_runs, plot_series = plots.attribute("plot_runs"), plots.attribute("plot_series")
+    plot_runs = sink_named("plot").attribute("plot_runs")  # MissingExtraError without matplotlib
+    from bowlrec.figures.series import plot_series
+
     data = []
     with archive_errors():
         for item in runs:

@@ -9,7 +9,6 @@ from typing import Annotated, Any
 
 import typer
 
-from bowlrec.api import simulate_into
 from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.errors import SceneInputError
 from bowlrec.scene_input import ParsedScene, parse_scene
@@ -88,6 +87,8 @@ def simulate(
             )
     with archive_errors():
         if store is not None:
+            from bowlrec.api import simulate_into
+
             result = with_status(
                 "simulating (first run compiles kernels)",
                 quiet,
