@@ -1095,11 +1095,12 @@ def test_the_in_memory_index_serves_concurrent_threads(tmp_path: Path, template:
     """A process that may not write lists from an index built in memory; threads share it."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from bowlrec.archive.maintenance import memory_index
+    from bowlrec.archive.rebuild import memory_index
 
     archive = Archive(tmp_path / "a")
     _seal(archive, [_copy(template, i) for i in range(20)])
-    archive._memory = memory_index(archive)  # what a reader without write access gets
+    (tmp_path / "a" / "index.sqlite").unlink()  # reads fall back to an index in memory
+    archive.directory.memory_index = memory_index(archive.directory)
 
     def work(_: int) -> int:
         return sum(len(archive.list_runs(where=["hook_m>=0"])) for _ in range(50))
