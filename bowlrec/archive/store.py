@@ -1,21 +1,9 @@
-"""The archive as one object: :class:`Archive`, a thin facade over the archive's modules.
-
-::
-
-    ARCHIVE/
-      archive.json                 {"format": "bowlrec-archive", "format_version": "2.0"}
-      segments/<segment>.h5        sealed segments: many runs each, never modified
-      balls/<name>/<version>.json  the ball library, one file per version
-      tombstones/<time>-<id>.json  removed or damaged copies of runs
-      quarantine/<segment>.h5      damaged segments set aside by `runs repair` (+ a report)
-      index.sqlite                 derived: runs, segments, balls; rebuilt from the files above
-      .writer.lock                 flock()ed while a process registers, removes or repairs
-
-Each method hands its work to one module, which takes the :class:`~.directory.ArchiveDir`:
-writing (:mod:`.writing`, :mod:`.group_commit`), queries (:mod:`.queries`), reading
-(:mod:`.reading`), maintenance (:mod:`.maintenance`), repair, compaction and the ball library.
-Reads never write; the first write of a process recovers what killed writers left. See
-docs/archive-format.md.
+"""The archive as one object: :class:`Archive`, a thin facade. Each method hands its work to
+the module that does it, which takes the :class:`~.directory.ArchiveDir` (paths, marker, writer
+lock, index connections, open segments): :mod:`.writing` and :mod:`.group_commit`,
+:mod:`.queries`, :mod:`.reading`, :mod:`.maintenance`, :mod:`.repair`, :mod:`.compaction`,
+:mod:`.balls`. Reads never write; the first write of a process recovers what killed writers
+left, and says what it did. Layout and guarantees: docs/archive-format.md.
 """
 
 from __future__ import annotations
@@ -80,26 +68,23 @@ class Archive:
         return self.directory.writer_lock()
 
     def index_reader(self) -> sqlite3.Connection:
-        """The index for reading: the file read-only, or built in memory while it is missing
-        or damaged. Never writes."""
+        """The index for reading (never writes; built in memory while the file is damaged)."""
         return read_index(self.directory)
 
     def index_writer(self) -> sqlite3.Connection:
-        """The index for writing (hold :meth:`writer_lock`); rebuilt first when missing or
-        damaged; the first call of a process recovers what killed writers left."""
+        """The index for writing (hold :meth:`writer_lock`; :func:`~.maintenance.writer_index`)."""
         return maintenance.writer_index(self.directory)
 
     def recover(self) -> dict[str, int]:
-        """Finish what killed writers left (cheap; no checksums read): delete stale
-        temporaries, register sealed segments and ball and tombstone files the index lacks;
-        counts of each, including what this process's first write recovered."""
+        """Finish what killed writers left (cheap; no checksums read): counts of what was done
+        (:func:`~.maintenance.recover`), this process's first write's recovery included."""
         return maintenance.recover(self.directory)
 
     # -- writing -----------------------------------------------------------------------------
 
     def builder(self, *, samples: str = "gzip") -> SegmentBuilder:
-        """A new segment builder carrying this process's provenance; ``samples``: the storage
-        filter of per-sample datasets, "gzip" or "none" (faster; compaction recompresses)."""
+        """A new segment builder carrying this process's provenance (``samples``: "gzip" or
+        "none", the storage filter of per-sample datasets)."""
         return writing.new_builder(samples=samples)
 
     def record(
@@ -112,8 +97,7 @@ class Archive:
         created_at_ns: int | None = None,
         records: dict[str, dict[str, Any]] | None = None,
     ) -> RunRecord:
-        """A finished run as a segment record (``ball_ref`` None: looked up by spec;
-        ``records``: its per-run record groups, see :attr:`~.segment.RunRecord.records`)."""
+        """A finished run as a segment record (:func:`~.writing.make_record`)."""
         return writing.make_record(
             run,
             self._library_refs,
@@ -124,13 +108,11 @@ class Archive:
             records=records,
         )
 
-    def _library_refs(self) -> dict[str, str]:
-        """SHA-256 of each library spec -> ``name@version`` of its newest entry."""
+    def _library_refs(self) -> dict[str, str]:  # ball-spec SHA-256 -> newest name@version
         return self.balls.refs_by_sha()
 
     def seal(self, builder: SegmentBuilder | SummaryRuns, *, durable: bool = True) -> SegmentInfo:
-        """Write the builder's runs (or columns of summary-only runs) as a sealed segment of
-        this archive (not yet registered)."""
+        """Seal the builder's runs (or summary-only runs) as a segment, not yet registered."""
         return writing.seal(self.directory, builder, durable=durable)
 
     def register(self, segments: Iterable[SegmentInfo | Path]) -> tuple[int, int]:
@@ -147,8 +129,7 @@ class Archive:
         durable: bool = True,
         records: dict[str, dict[str, Any]] | None = None,
     ) -> AddResult:
-        """Store a finished run as a segment of one run (idempotent: an already archived run
-        ID writes nothing); the arguments as :meth:`record` takes them."""
+        """Store a finished run as a segment of one run; idempotent (:func:`~.writing.add`)."""
         return writing.add(
             self.directory,
             run,
@@ -163,19 +144,16 @@ class Archive:
     # -- removal and maintenance -------------------------------------------------------------
 
     def set_aside(self, run_id: str, segment_id: str, reason: str) -> None:
-        """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it
-        from the index; a damaged copy is listed by :meth:`damaged`."""
+        """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...")."""
         maintenance.set_aside(self.directory, run_id, segment_id, reason)
 
     def remove(self, run_id: str) -> str:
-        """Remove a run (every stored copy of it; a tombstone first, so it never comes back;
-        :meth:`compact` reclaims the space); returns the full run ID."""
+        """Tombstone every copy of a run (it never comes back); its full run ID."""
         return maintenance.remove(self.directory, run_id)
 
     def repair(self, *, min_age_s: float = 2.0) -> dict[str, Any]:
-        """Check every stored run's digest and the index against the segments and ball files;
-        quarantine damaged and unreadable segments (their healthy runs are rewritten to a new
-        segment). A report (:func:`~.repair.repair`)."""
+        """Check every digest, the index against the segments and ball files; quarantine
+        damaged and unreadable segments, healthy runs kept. A report (:func:`~.repair.repair`)."""
         return repair.repair(self.directory, min_age_s=min_age_s)
 
     def reindex(self) -> int:
@@ -183,13 +161,11 @@ class Archive:
         return int(self.rebuild_index()["runs"])
 
     def rebuild_index(self) -> dict[str, Any]:
-        """:meth:`reindex` with its report (:func:`~.maintenance.reindex`): counts, the
-        unreadable segments, what recovery did."""
+        """:meth:`reindex` with its report (:func:`~.maintenance.reindex`)."""
         return maintenance.reindex(self.directory)
 
     def compact(self, *, target_runs: int = 10_000) -> dict[str, int]:
-        """Rewrite segments that hold removed, damaged or duplicate copies, and merge small
-        segments, into segments of up to ``target_runs`` runs. A report."""
+        """Rewrite segments with dead copies, merge small ones (:func:`~.compaction.compact`)."""
         return compaction.compact(self.directory, target_runs=target_runs)
 
     # -- queries (the index only) ------------------------------------------------------------
@@ -206,12 +182,9 @@ class Archive:
         limit: int | None = None,
         offset: int = 0,
     ) -> list[dict[str, Any]]:
-        """Index rows (dicts keyed by :data:`~bowlrec.archive.index.INDEX_COLUMNS`), filtered.
-
-        ``ball`` is a library name or ``name@version``; ``where`` holds conditions such as
-        ``"hook_m>=0.1"`` (any index column, ops <= >= != = < >); ``offset`` rows of the
-        ordered result are skipped (pages of a table). Reads only the index.
-        """
+        """Index rows (dicts keyed by :data:`~.index.INDEX_COLUMNS`), filtered: ``ball`` a
+        library name or ``name@version``, ``where`` conditions such as ``"hook_m>=0.1"`` (any
+        index column, ops <= >= != = < >); ``offset`` rows of the ordered result skipped."""
         found = queries.run_filters(self.directory, ball, pattern, outcome, name, where)
         return queries.list_runs(
             self.directory, *found, order_by=order_by, limit=limit, offset=offset
@@ -227,8 +200,7 @@ class Archive:
         where: Sequence[Filter | str] = (),
         cap: int | None = None,
     ) -> int:
-        """How many runs :meth:`list_runs` lists with these filters, counting at most ``cap``
-        (a count of ``cap`` means "at least ``cap``")."""
+        """How many runs :meth:`list_runs` lists with these filters, counting at most ``cap``."""
         found = queries.run_filters(self.directory, ball, pattern, outcome, name, where)
         return queries.count_runs(self.directory, *found, cap=cap)
 
@@ -267,8 +239,7 @@ class Archive:
     # -- reading (digests checked) -----------------------------------------------------------
 
     def load(self, run_id: str) -> StoredRun:
-        """Read a run back (scene, trajectory, provenance), its digest checked; raises
-        RunNotFoundError, or RunDamagedError naming the run and its segment."""
+        """A run read back, its digest checked (:func:`~.reading.load`)."""
         return reading.load(self.directory, run_id)
 
     def run_data(self, run_id: str) -> RunData:
@@ -276,8 +247,7 @@ class Archive:
         return reading.run_data(self.directory, run_id)
 
     def export(self, run_id: str, dest: str | os.PathLike[str]) -> Path:
-        """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0) at
-        ``dest`` (a file or an existing directory)."""
+        """Write one run as a ``bowlrec-run`` 1.0 file at ``dest`` (a file or a directory)."""
         return reading.export(self.directory, run_id, dest)
 
     def close(self) -> None:
