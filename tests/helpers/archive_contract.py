@@ -18,8 +18,12 @@ every read method, with the index file healthy or missing).
 
 from __future__ import annotations
 
+import random
+import subprocess
+import sys
 import zlib
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -29,10 +33,12 @@ import pytest
 
 import bowlrec
 from bowlrec.archive import run_id
+from bowlrec.archive.segment_file import SegmentFile
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import BallNotFoundError, RunDamagedError, RunNotFoundError
 from bowlrec.paper import paper_scene
 from bowlrec.sinks import RunData
+from bowlrec.sinks.hdf5_run import read_run_file, write_run_file
 from bowlrec.spec import Scene
 
 # -- runs ----------------------------------------------------------------------------------------
@@ -87,6 +93,109 @@ def seal(archive: Any, runs: Sequence[RunData], *, register: bool = True) -> Pat
 def listed(archive: Any, **filters: Any) -> list[str]:
     """The run IDs ``archive.list_runs`` lists (in its order)."""
     return [r["run_id"] for r in archive.list_runs(**filters)]
+
+
+def ids_in_segment_files(root: Path) -> list[str]:
+    """Run IDs of every sealed segment file (with repeats when several files hold a run)."""
+    ids: list[str] = []
+    for path in sorted((root / "segments").glob("*.h5")):
+        with SegmentFile(path) as seg:
+            ids += seg.run_ids()
+    return ids
+
+
+def temporaries(root: Path) -> list[Path]:
+    """Temporaries (``*.part``) under ``root``."""
+    return sorted(root.rglob("*.part"))
+
+
+def library(archive: Any) -> list[tuple[str, int, str, str, str]]:
+    """The ball library: (name, version, sha, added_at, note) of every version."""
+    return [
+        (e.name, e.version, e.sha, e.added_at, e.note)
+        for e in archive.balls.list(all_versions=True)
+    ]
+
+
+def indexed_archive(root: Path, run: RunData) -> Any:
+    """An archive of 8 live runs (copies 0-8 of ``run`` in two segments, copy 4 removed) and
+    three ball versions."""
+    from bowlrec.archive import Archive
+
+    archive = Archive(root)
+    seal(archive, [copy_of(run, i) for i in range(6)])
+    seal(archive, [copy_of(run, i) for i in range(6, 9)])
+    ball = run.scene.ball
+    archive.balls.add("house", ball, note="first")
+    archive.balls.add("house", ball.model_copy(update={"mass_kg": 7.0}), note="second")
+    archive.balls.add("spare", ball.model_copy(update={"mass_kg": 6.0}))
+    archive.remove(f"{4:020x}")
+    return archive
+
+
+def damage_index(path: Path, damage: str) -> None:
+    """``damage`` the index file at ``path``: "deleted", or "garbled" (random bytes in place)."""
+    if damage == "deleted":
+        path.unlink()
+    else:
+        size = path.stat().st_size
+        with open(path, "r+b") as fh:  # in place: same file, random bytes
+            fh.write(random.Random(7).randbytes(size))
+
+
+# -- child processes (tests/archive_fault_child.py) -----------------------------------------------
+
+CHILD = Path(__file__).resolve().parents[1] / "archive_fault_child.py"
+
+
+@dataclass(frozen=True)
+class Template:
+    """A run file the writer children copy, and the run as read back from it."""
+
+    path: Path
+    run: RunData
+
+
+def make_template(directory: Path) -> Template:
+    """:func:`recorded_scene` simulated, written as a run file in ``directory`` and read
+    back."""
+    scene = recorded_scene()
+    run = RunData(scene, scene.resolve(), bowlrec.simulate(scene))
+    path = write_run_file(directory / "template.h5", run, {})
+    stored = read_run_file(path)
+    return Template(path, RunData(stored.scene, stored.scene.resolve(), stored.trajectory))
+
+
+def spawn(*args: str, **kwargs: Any) -> subprocess.Popen[str]:
+    """tests/archive_fault_child.py started with ``args`` (stdout and stderr piped, text)."""
+    return subprocess.Popen(
+        [sys.executable, str(CHILD), *args],
+        stdin=kwargs.pop("stdin", subprocess.DEVNULL),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kwargs,
+    )
+
+
+def collect(child: subprocess.Popen[str]) -> tuple[str, str]:
+    """The rest of a child's stdout and its stderr, once it exits. (Not communicate(): after a
+    readline() it would miss what the text wrapper had already buffered.)"""
+    assert child.stdout is not None and child.stderr is not None
+    out = child.stdout.read()
+    err = child.stderr.read()
+    child.wait(timeout=60)
+    return out, err
+
+
+def wait_ready(child: subprocess.Popen[str]) -> None:
+    """Wait for the child's ``ready`` line (kill it and fail otherwise)."""
+    assert child.stdout is not None
+    line = child.stdout.readline().strip()
+    if line != "ready":
+        child.kill()
+        _, err = collect(child)
+        raise AssertionError(f"child did not start: {line!r}\n{err}")
 
 
 # -- damage --------------------------------------------------------------------------------------
