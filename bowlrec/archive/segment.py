@@ -9,7 +9,7 @@ root attributes. Layout and digests: ``docs/archive-format.md``.
 
 :class:`SegmentBuilder` collects runs in memory and :meth:`SegmentBuilder.seal` writes the file
 whole (temporary name, fsync, rename): a segment on disk is complete or absent. Sealed segments
-are never modified; removal and compaction are the index's and the maintenance module's work.
+are never modified; removal writes tombstones and compaction writes new segments.
 """
 
 from __future__ import annotations
