@@ -53,7 +53,7 @@ __all__ = [
     "writer_index",
 ]
 
-log = logging.getLogger("bowlrec.archive")
+log = logging.getLogger(__package__)  # "bowlrec.archive"
 
 #: seconds a locked-kind temporary must have existed before an unlocked one is deemed dead
 #: (its writer creates it, then locks it: microseconds apart)

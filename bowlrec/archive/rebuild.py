@@ -33,7 +33,7 @@ __all__ = [
     "register_segment_files",
 ]
 
-log = logging.getLogger("bowlrec.archive")
+log = logging.getLogger(__package__)  # "bowlrec.archive"
 
 
 def now() -> str:
