@@ -92,7 +92,10 @@ def _quarantine(
 
 
 def _unreadable(err: BaseException, path: Path) -> str:
-    return "segment file missing" if not path.exists() else f"unreadable: {err}"
+    """Why a segment file cannot be read, in one line."""
+    if not path.exists():
+        return "segment file missing"
+    return f"segment unreadable: {' '.join(str(err).split())}"
 
 
 def _check_ball_rows(d: ArchiveDir, con: sqlite3.Connection) -> int:
@@ -208,7 +211,7 @@ def repair(d: ArchiveDir, *, min_age_s: float = 2.0) -> dict[str, Any]:
             try:
                 SegmentFile(path).close()
             except (SegmentError, OSError, KeyError) as err:
-                reason = f"segment unreadable: {' '.join(_unreadable(err, path).split())}"
+                reason = _unreadable(err, path)
             else:
                 continue  # readable: sealed by a writer since recovery ran, which registers it
             _quarantine(d, con, path.stem, path, {UNKNOWN_RUN: reason}, [])
