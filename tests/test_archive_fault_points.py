@@ -18,9 +18,11 @@ from pathlib import Path
 
 import pytest
 from helpers.archive_contract import (
+    SimulatedCrash,
     assert_same_trajectory,
     change_value_in_place,
     copy_of,
+    crash_at,
     listed,
     recorded_scene,
     seal,
@@ -29,7 +31,6 @@ from helpers.archive_contract import (
 )
 
 from bowlrec.archive import Archive, faults
-from bowlrec.archive.faults import SimulatedCrash
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import RunDamagedError
 from bowlrec.sinks import RunData
@@ -86,11 +87,10 @@ def test_a_crash_mid_write_of_a_segment(
     archive, ids = _archived(root, template)
     left: list[Path] = []
 
-    def crash(path: Path) -> None:
+    def leave(path: Path) -> None:
         left.append(_leave_a_dead_copy(path))
-        raise SimulatedCrash("killed while writing a segment")
 
-    with faults.armed("segment-written", crash), pytest.raises(SimulatedCrash):
+    with crash_at("segment-written", leave), pytest.raises(SimulatedCrash):
         archive.add(copy_of(template, 30), wall_time_s=0.0)
     assert left and left[0].exists()
     assert not list(root.glob("segments/*.h5.????????.part")), "the writer's own temporary"
@@ -108,7 +108,7 @@ def test_a_crash_mid_write_of_a_segment(
 def test_a_crash_between_sealing_and_registering(tmp_path: Path, template: RunData) -> None:
     root = tmp_path / "a"
     archive, ids = _archived(root, template)
-    with faults.armed("sealed"), pytest.raises(SimulatedCrash):
+    with crash_at("sealed"), pytest.raises(SimulatedCrash):
         archive.add(copy_of(template, 30), wall_time_s=0.0)
     before = snapshot(root)
     reader = Archive(root)
@@ -132,7 +132,7 @@ def test_a_crash_inside_the_index_transaction(tmp_path: Path, template: RunData)
         for i in range(first, first + 4):
             builder.append(archive.record(copy_of(template, i), wall_time_s=0.0))
         infos.append(archive.seal(builder))
-    with faults.armed("registering"), pytest.raises(SimulatedCrash):
+    with crash_at("registering"), pytest.raises(SimulatedCrash):
         archive.register(infos)
     assert sorted(listed(archive)) == ids and sorted(listed(Archive(root))) == ids
     assert not (root / "index.sqlite-journal").exists()
@@ -159,7 +159,7 @@ def test_a_crash_in_a_group_commit(tmp_path: Path, template: RunData) -> None:
             outcomes[i] = err
 
     try:
-        with faults.armed("group-commit-sealed"):
+        with crash_at("group-commit-sealed"):
             threads = [threading.Thread(target=hand_over, args=(i,)) for i in range(6)]
             for t in threads:
                 t.start()
@@ -186,7 +186,7 @@ def test_a_crash_after_the_tombstone_is_written(tmp_path: Path, template: RunDat
     root = tmp_path / "a"
     archive, ids = _archived(root, template)
     gone = f"{11:020x}"
-    with faults.armed("tombstone-written"), pytest.raises(SimulatedCrash):
+    with crash_at("tombstone-written"), pytest.raises(SimulatedCrash):
         archive.remove(gone)
     assert gone in listed(Archive(root))  # reads apply nothing
 
@@ -217,7 +217,7 @@ def test_a_crash_mid_compaction(tmp_path: Path, template: RunData, point: str) -
     archive.remove(ids[0])
     archive.remove(ids[1])
     live = ids[2:]
-    with faults.armed(point), pytest.raises(SimulatedCrash):
+    with crash_at(point), pytest.raises(SimulatedCrash):
         archive.compact()
     reader = Archive(root)
     assert sorted(listed(reader)) == live
@@ -250,7 +250,7 @@ def test_a_crash_mid_repair(tmp_path: Path, template: RunData, point: str) -> No
     change_value_in_place(bad, "summary/hook_m", 1)
     damaged = f"{1:020x}"
     healthy = _ids(range(0, 1), range(2, 4), range(10, 12))
-    with faults.armed(point), pytest.raises(SimulatedCrash):
+    with crash_at(point), pytest.raises(SimulatedCrash):
         archive.repair(min_age_s=0)
     assert sorted(listed(Archive(root))) == sorted([*healthy, damaged])  # the index as it was
 
@@ -283,12 +283,11 @@ def test_a_crash_while_rebuilding_the_index(tmp_path: Path, template: RunData) -
     before = index.read_bytes()
     left: list[Path] = []
 
-    def crash(path: Path) -> None:
+    def leave(path: Path) -> None:
         left.append(path.with_name("index.sqlite.rebuild-deadbeef"))
         shutil.copy(path, left[0])
-        raise SimulatedCrash("killed while rebuilding the index")
 
-    with faults.armed("index-rebuilt", crash), pytest.raises(SimulatedCrash):
+    with crash_at("index-rebuilt", leave), pytest.raises(SimulatedCrash):
         archive.reindex()
     assert index.read_bytes() == before and sorted(listed(Archive(root))) == ids
     assert left[0].exists()
@@ -299,7 +298,7 @@ def test_a_crash_while_rebuilding_the_index(tmp_path: Path, template: RunData) -
 
 def test_fault_points_are_named_and_disarmed() -> None:
     with pytest.raises(ValueError, match="no fault point 'nowhere'"):
-        faults.armed("nowhere").__enter__()
-    with faults.armed("sealed"), pytest.raises(RuntimeError, match="armed already"):
-        faults.armed("sealed").__enter__()
+        crash_at("nowhere").__enter__()
+    with crash_at("sealed"), pytest.raises(RuntimeError, match="armed already"):
+        crash_at("sealed").__enter__()
     faults.point("sealed")  # disarmed again: a no-op

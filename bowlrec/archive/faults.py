@@ -3,10 +3,10 @@
 The write path calls :func:`point` at the moments a crash matters (each name in
 :data:`POINTS`). Nothing is armed in production: a point is then one test of an empty dict,
 once per segment, file or transaction (never per run). A test arms a point with
-:func:`armed`; the point then calls the test's action, which by default raises
-:class:`SimulatedCrash` there. What only a real kill shows (a flock released by the OS, an
-fsync, SQLite's journal played back) is tested by killing processes
-(tests/test_archive_faults.py).
+:func:`armed`; the point then calls the test's action, which raises there (an exception no
+``except Exception`` handles stands for a kill; tests/helpers/archive_contract.py) or fails as
+the system would (a full disk). What only a real kill shows (a flock released by the OS, a
+rollback journal played back) is tested by killing processes (tests/test_archive_faults.py).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
-__all__ = ["POINTS", "SimulatedCrash", "armed", "point"]
+__all__ = ["POINTS", "armed", "point"]
 
 #: every fault point: name -> the moment it marks
 POINTS: dict[str, str] = {
@@ -34,11 +34,6 @@ POINTS: dict[str, str] = {
 }
 
 
-class SimulatedCrash(BaseException):
-    """Raised at an armed fault point: the process "dies" there. A BaseException, so that no
-    ``except Exception`` of the write path handles it (nothing handles a kill either)."""
-
-
 _armed: dict[str, Callable[..., None]] = {}
 _lock = threading.Lock()
 
@@ -52,23 +47,16 @@ def point(name: str, **context: Any) -> None:
             action(**context)
 
 
-def _crash(name: str) -> Callable[..., None]:
-    def action(**_context: Any) -> None:
-        raise SimulatedCrash(f"simulated crash at fault point {name!r}")
-
-    return action
-
-
 @contextlib.contextmanager
-def armed(name: str, action: Callable[..., None] | None = None) -> Iterator[None]:
-    """Arm fault point ``name`` for the ``with`` block: ``action(**context)`` runs there (by
-    default it raises :class:`SimulatedCrash`). Every thread sees the armed point."""
+def armed(name: str, action: Callable[..., None]) -> Iterator[None]:
+    """Arm fault point ``name`` for the ``with`` block: ``action(**context)`` runs there.
+    Every thread sees the armed point."""
     if name not in POINTS:
         raise ValueError(f"no fault point {name!r}; the points: {', '.join(POINTS)}")
     with _lock:
         if name in _armed:
             raise RuntimeError(f"fault point {name!r} is armed already")
-        _armed[name] = action or _crash(name)
+        _armed[name] = action
     try:
         yield
     finally:

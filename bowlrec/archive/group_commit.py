@@ -26,15 +26,14 @@ from .writing import new_builder, register, seal
 if TYPE_CHECKING:
     from .segment_format import RunRecord
 
+__all__ = ["GroupCommitter"]
+
 
 class _HasDirectory(Protocol):
     """What holds an archive directory (an :class:`~bowlrec.archive.Archive`)."""
 
     @property
     def directory(self) -> ArchiveDir: ...
-
-
-__all__ = ["GroupCommitter"]
 
 
 @dataclass
@@ -51,10 +50,9 @@ class GroupCommitter:
 
     ``archive``: an :class:`~.directory.ArchiveDir` or what holds one (an
     :class:`~bowlrec.archive.Archive`); ``max_runs``: runs per segment at most; ``durable``:
-    fsync each segment. :meth:`start`
-    starts the committer thread (the first :meth:`add` does if needed); :meth:`close` stops it
-    after committing the runs already handed over, and a run added later is committed on its
-    own in the calling thread.
+    fsync each segment. :meth:`start` starts the committer thread (the first :meth:`add` does
+    if needed); :meth:`close` stops it after committing the runs already handed over, and a
+    run added later is committed on its own in the calling thread.
     """
 
     def __init__(

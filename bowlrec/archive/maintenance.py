@@ -83,7 +83,13 @@ def _open_writer(d: ArchiveDir) -> sqlite3.Connection:
         return d.index_writer()
     except IndexUnreadableError as err:
         counts = rebuild_index(d)
-        log.warning("%s; rebuilt from the data files (%d run(s) indexed)", err, counts["runs"])
+        bad = counts["segments_unreadable"]
+        log.warning(
+            "%s; rebuilt from the data files (%d run(s) indexed%s)",
+            err,
+            counts["runs"],
+            f"; {bad} unreadable segment(s): run `bowlrec runs repair`" if bad else "",
+        )
         return d.index_writer()
 
 

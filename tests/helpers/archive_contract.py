@@ -18,6 +18,7 @@ every read method, with the index file healthy or missing).
 
 from __future__ import annotations
 
+import contextlib
 import random
 import subprocess
 import sys
@@ -32,7 +33,7 @@ import numpy as np
 import pytest
 
 import bowlrec
-from bowlrec.archive import run_id
+from bowlrec.archive import faults, run_id
 from bowlrec.archive.segment_file import SegmentFile
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.errors import BallNotFoundError, RunDamagedError, RunNotFoundError
@@ -141,6 +142,29 @@ def damage_index(path: Path, damage: str) -> None:
         size = path.stat().st_size
         with open(path, "r+b") as fh:  # in place: same file, random bytes
             fh.write(random.Random(7).randbytes(size))
+
+
+# -- crashes replayed in-process -----------------------------------------------------------------
+
+
+class SimulatedCrash(BaseException):
+    """Raised at an armed fault point: the process "dies" there. A BaseException, so that no
+    ``except Exception`` of the write path handles it (nothing handles a kill either)."""
+
+
+@contextlib.contextmanager
+def crash_at(name: str, before: Callable[..., None] | None = None) -> Iterator[None]:
+    """Within the block, the write path "dies" at fault point ``name`` (raises
+    :class:`SimulatedCrash` there), after ``before(**context)`` when given (to leave what a real
+    kill leaves, e.g. a temporary)."""
+
+    def crash(**context: Any) -> None:
+        if before is not None:
+            before(**context)
+        raise SimulatedCrash(f"simulated crash at fault point {name!r}")
+
+    with faults.armed(name, crash):
+        yield
 
 
 # -- child processes (tests/archive_fault_child.py) -----------------------------------------------
