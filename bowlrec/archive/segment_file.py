@@ -26,7 +26,8 @@ from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunDamagedError, SegmentError
 from bowlrec.units import DIMENSIONLESS, units_for
 
-from .segment import (
+from . import faults
+from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
     RUN_FLOAT_COLUMNS,
@@ -131,6 +132,7 @@ def write_segment(
                     meanings[f"{group_name}/{name}"] = meaning
         f["torques"].attrs["order"] = terms
         f.attrs["meanings_json"] = json.dumps(meanings, sort_keys=True)
+        faults.point("segment-written", path=tmp)
 
 
 #: datasets of at most this many bytes are stored contiguous and uncompressed (a chunk index
