@@ -94,9 +94,9 @@ def writers(tmp: Path, repeats: int) -> list[dict[str, Any]]:
     """ms per run (median) and bytes per run for each format."""
     import bowlrec
     from bowlrec.archive import Archive
+    from bowlrec.figures.trajectory import plot_runs
     from bowlrec.sinks import RunData
     from bowlrec.sinks.mcap_file import write_mcap
-    from bowlrec.sinks.plot import plot_runs
     from bowlrec.sinks.rerun_recording import write_rrd
     from bowlrec.spec import Scene
 

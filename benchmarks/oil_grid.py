@@ -58,8 +58,7 @@ from bowlrec.bowling.oil_transfer import (
     session_oil_grid,
     track_coverage,
 )
-from bowlrec.bowling.scene import BowlerScene
-from bowlrec.bowling.shot import Shot
+from bowlrec.bowling.scene import BowlerScene, Shot
 from bowlrec.bowling.variance import PRESETS, ReleaseScatter
 from bowlrec.core.codes import RECORD_RATE, RECORD_SUMMARY
 from bowlrec.core.solver import kernel_call, solve

@@ -1,29 +1,32 @@
-"""The front door: a scene (object, dict or file) in, a Trajectory out, or stored in an archive."""
+"""The front door: a scene (object, mapping or file) in, a Trajectory out, or stored in an
+archive."""
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from .core.trajectory import Trajectory
-from .spec import Scene, load_scene
+from .scene_input import SceneSource, parse_scene_input
 
 if TYPE_CHECKING:
     from .archive import AddResult, Archive
     from .archive.group_commit import GroupCommitter
+    from .spec import Scene
 
 
-def as_scene(scene: Scene | dict[str, Any] | str | Path) -> Scene:
-    """Validate a scene given as a Scene, a mapping, or a path to a .json/.yaml file."""
-    if isinstance(scene, Scene):
-        return scene
-    if isinstance(scene, dict):
-        return Scene.model_validate(scene)
-    return load_scene(scene)
+def as_scene(scene: SceneSource) -> Scene:
+    """The validated physical scene of a :class:`~bowlrec.spec.Scene` (returned as it is), a
+    :class:`~bowlrec.bowling.scene.BowlerScene`, a mapping (physical, or bowler-language with
+    ``"format": "bowler"``) or a path to a .json/.yaml/.yml file: the one way in,
+    :func:`bowlrec.scene_input.parse_scene_input`. Raises
+    :class:`~bowlrec.errors.SceneInputError` (a ``ValueError``) naming each bad field, and the
+    file for a file."""
+    return parse_scene_input(scene).scene
 
 
-def simulate(scene: Scene | dict[str, Any] | str | Path) -> Trajectory:
-    """Simulate one delivery from release to its outcome; see :class:`Trajectory`."""
+def simulate(scene: SceneSource) -> Trajectory:
+    """Simulate one delivery from release to its outcome; see :class:`Trajectory`. ``scene``
+    as :func:`as_scene` takes it (SceneInputError when it is invalid)."""
     from .core.solver import run_plan
 
     return run_plan(as_scene(scene).resolve())

@@ -48,10 +48,7 @@ spec: one line per problem). This module imports only the standard library.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from bowlrec.bowling.legality import LegalityReport
+from collections.abc import Sequence
 
 __all__ = [
     "AimError",
@@ -153,18 +150,21 @@ class SpecFileError(InputError, ValueError):
 
 
 class IllegalBallError(InputError, ValueError):
-    """The ball breaks the selected rules and simulating it was not explicitly allowed."""
+    """The ball breaks the selected rules and simulating it was not explicitly allowed.
 
-    def __init__(self, report: LegalityReport) -> None:
-        broken = "; ".join(
-            f"{v.rule} {v.value:.6g} {v.unit} (limit {v.limit:.6g} {v.unit})"
-            for v in report.violations
-        )
+    ``ball_name`` and ``rule_set`` name the ball and the rules; ``violations`` holds one line
+    per broken rule, e.g. ``"rg_min 2.44 in (limit 2.46 in)"`` (the legality check,
+    :mod:`bowlrec.bowling.legality`, writes them)."""
+
+    def __init__(self, ball_name: str, rule_set: str, violations: Sequence[str]) -> None:
         super().__init__(
-            f"ball {report.ball_name!r} is illegal under rule set '{report.rule_set}': {broken}; "
-            "set allow_illegal to true to simulate it anyway"
+            f"ball {ball_name!r} is illegal under rule set '{rule_set}': "
+            f"{'; '.join(violations)}; set allow_illegal to true to simulate it anyway"
         )
-        self.report = report
+        self.ball_name, self.rule_set, self.violations = ball_name, rule_set, tuple(violations)
+
+    def __reduce__(self) -> tuple[type[IllegalBallError], tuple[str, str, tuple[str, ...]]]:
+        return type(self), (self.ball_name, self.rule_set, self.violations)
 
 
 class AimError(InputError, ValueError):

@@ -1,6 +1,8 @@
 """HDF5 run files, segments and the archive: round trips, content IDs, queries, the ball
-library, tombstones and compaction, durability under kill -9, and the committed fixtures (format
-1.0, migrated; format 2.0, read as is). Fault injection is in test_archive_faults.py."""
+library, tombstones and compaction, and the committed fixtures (format 1.0, migrated; format
+2.0 and 2.1, read as is). The contract every archive layer keeps is test_archive_contract.py;
+faults: test_archive_fault_points.py and test_archive_damage.py (in-process),
+test_archive_processes.py (several processes) and test_archive_faults.py (real kills)."""
 
 from __future__ import annotations
 
@@ -603,6 +605,7 @@ def test_committed_v2_fixture_archive_still_reads(tmp_path: Path) -> None:
     assert set(traj.torques_Nm) >= {"tau_dev", "I_dev"}
 
 
+@pytest.mark.process
 @pytest.mark.skipif(
     __import__("shutil").which("h5dump") is None,
     reason="h5dump (Debian's hdf5-tools, HDF5 1.10) is not installed; .ci/run installs it",

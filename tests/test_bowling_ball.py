@@ -262,7 +262,8 @@ def test_ensure_legal_raises_unless_allowed() -> None:
     text = str(info.value)
     for piece in ("rg_min", "2.44", "2.46", "differential_max", "0.07", "current", "allow_illegal"):
         assert piece in text
-    assert info.value.report.rules_violated == ("rg_min", "differential_max")
+    assert (info.value.ball_name, info.value.rule_set) == (bad.name, "current")
+    assert [v.split()[0] for v in info.value.violations] == ["rg_min", "differential_max"]
     report = ensure_legal(bad, allow_illegal=True)
     assert not report.is_legal
     assert ensure_legal(bad, "paper_era").is_legal

@@ -14,7 +14,7 @@ import bowlrec
 from bowlrec.bowling.scene import BowlerScene
 from bowlrec.cli import app
 from bowlrec.errors import IllegalBallError
-from bowlrec.spec import load_scene
+from bowlrec.scene_input import parse_scene_file
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "bowler" / "house-shot-right.json"
 
@@ -68,7 +68,7 @@ def test_bad_combinations_name_the_fields() -> None:
 def test_example_file_loads_and_the_cli_reports_in_bowlers_terms(
     tmp_path: Path,
 ) -> None:
-    scene = load_scene(EXAMPLE)
+    scene = parse_scene_file(EXAMPLE).scene
     assert scene.name == "right-hander-house-shot"
     result = CliRunner().invoke(app, ["simulate", str(EXAMPLE), "--json", "--no-archive"])
     assert result.exit_code == 0, result.output
@@ -92,7 +92,7 @@ def test_bowling_cli_commands(tmp_path: Path) -> None:
     assert "rule set 'current': legal" in sheet.output
     path = tmp_path / "bowler.json"
     assert runner.invoke(app, ["bowler-scene", str(path)]).exit_code == 0
-    assert load_scene(path) == BowlerScene().to_scene()
+    assert parse_scene_file(path).scene == BowlerScene().to_scene()
 
 
 def test_docs_table2_block_is_the_computed_one() -> None:

@@ -299,7 +299,7 @@ def test_runs_show_flags_a_run_made_before_the_current_bowler_layer(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A segment whose provenance has no bowler_layer_version (written before it existed)."""
-    from bowlrec.archive import provenance
+    from bowlrec import provenance
 
     old = tuple(kv for kv in provenance._environment() if kv[0] != "bowler_layer_version")
     monkeypatch.setattr(provenance, "_environment", lambda: old)

@@ -142,6 +142,19 @@ def test_errors_module_loads_only_the_standard_library() -> None:
     assert not {m.split(".")[0] for m in new} & {"pydantic", "numpy", "typer", "fastapi"}, new
 
 
+def test_illegal_ball_error_takes_plain_values_and_pickles() -> None:
+    """errors.py knows nothing of the legality check: the check writes the lines."""
+    import pickle
+
+    err = E.IllegalBallError("heavy", "current", ["weight_max 16.5 lb (limit 16 lb)"])
+    assert str(err) == (
+        "ball 'heavy' is illegal under rule set 'current': weight_max 16.5 lb (limit 16 lb); "
+        "set allow_illegal to true to simulate it anyway"
+    )
+    back = pickle.loads(pickle.dumps(err))
+    assert (type(back), str(back), back.violations) == (type(err), str(err), err.violations)
+
+
 # -- the command line ----------------------------------------------------------------------------
 
 

@@ -19,8 +19,11 @@ k_L C_L(S) |v|^2 (w x v)/|w x v|, the slope from scipy-free NumPy spline code in
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
+import warnings
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -294,15 +297,41 @@ def test_off_means_nothing_new() -> None:
         assert one != solve(plan).summary
 
 
+def _fingerprint_variant() -> tuple[dict[str, Any], bool]:
+    """The committed fingerprint of commit 86ab6d9 recorded on this platform (True), or else
+    the first recorded one (False): see ``tools/kernel_fingerprint.py`` on what the bits of a
+    result depend on besides the code."""
+    from tools.kernel_fingerprint import platform
+
+    fixture = json.loads(
+        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
+    )
+    here = platform()
+    for variant in fixture["variants"]:
+        if variant["platform"] == here:
+            return variant, True
+    return fixture["variants"][0], False
+
+
 def test_default_run_ids_unchanged() -> None:
     """Run IDs of scenes without the new fields, as computed before they existed (commit
-    86ab6d9); and the canonical Plan has none of the new fields."""
+    86ab6d9); and the canonical Plan has none of the new fields. A random delivery's plan goes
+    through OpenBLAS (its frame is normalised with BLAS), so its ID is checked against the
+    value recorded on this platform."""
     from bowlrec.paper import paper_scene
     from bowlrec.testing import random_plans
 
     assert run_id(Scene().resolve()) == "6869b428ad6d059d14e5"
     assert run_id(paper_scene(5).resolve()) == "e8833d95b85cd5d2acd8"
-    assert run_id(random_plans(1)[0][1]) == "fcb27965934f245230a4"
+    variant, exact = _fingerprint_variant()
+    if exact:
+        assert run_id(random_plans(1)[0][1]) == variant["random_run_id"]
+    else:
+        warnings.warn(
+            "no kernel fingerprint recorded for this platform: the random delivery's run ID "
+            "is not compared (tools/kernel_fingerprint.py --subset records one)",
+            stacklevel=1,
+        )
     canon = canonical_plan(Scene().resolve())
     assert not {"drag_coefficient", "cross_slope", "profile_y_m", "lift_model"} & set(canon)
 
@@ -416,21 +445,43 @@ def test_record_terms_has_tau_ext_only_when_on() -> None:
     assert "tau_ext" not in solve(flat.resolve()).torques_Nm
 
 
+def _close(got: dict[str, Any], want: dict[str, Any]) -> bool:
+    """Summaries equal but for rounding: every count and outcome exactly, every float within
+    1e-8 relative (1e-12 absolute near zero). Between platforms the bits differ by up to
+    1e-9 relative, measured (tools/kernel_fingerprint.py); a change of the physics or of the
+    step control moves metrics by orders of magnitude more, and counts with them."""
+    if got.keys() != want.keys():
+        return False
+    for key, value in want.items():
+        if isinstance(value, str) and value.lstrip("-").startswith("0x"):
+            a, b = float.fromhex(got[key]), float.fromhex(value)
+            if not math.isclose(a, b, rel_tol=1e-8, abs_tol=1e-12):
+                return False
+        elif got[key] != value:
+            return False
+    return True
+
+
 def test_default_scenes_are_bit_identical_to_the_tree_without_the_terms() -> None:
     """Summaries (every metric, exact), right-hand-side counts and sample digests of the Table
     III cases, the bowler examples, the default scene and 20 random offset balls, in four record
     modes, equal those of commit 86ab6d9 (``tests/fixtures/kernel-fingerprint-86ab6d9.json``,
-    extracted from ``tools/kernel_fingerprint.py`` run on that tree). A deliberate change of the
-    default physics fails here: rewrite the fixture then (``tools/kernel_fingerprint.py
-    --subset``), with a note in the changelog."""
-    import json
-
+    extracted from ``tools/kernel_fingerprint.py`` run on that tree) recorded on this platform.
+    On a platform with no recording, summaries are compared within rounding (:func:`_close`)
+    and digests not at all, with a warning. A deliberate change of the default physics fails
+    here: rewrite the fixture then (``tools/kernel_fingerprint.py --subset --replace``), with a
+    note in the changelog."""
     from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
     from tools.kernel_fingerprint import _digest, _summary, deliveries
 
-    expected = json.loads(
-        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
-    )
+    expected, exact = _fingerprint_variant()
+    if not exact:
+        warnings.warn(
+            "no kernel fingerprint recorded for this platform: summaries compared within "
+            "rounding, sample digests not compared (tools/kernel_fingerprint.py --subset "
+            "records one)",
+            stacklevel=1,
+        )
     plans = dict(deliveries())
     checked = 0
     for key, want in expected["summaries"].items():
@@ -444,8 +495,35 @@ def test_default_scenes_are_bit_identical_to_the_tree_without_the_terms() -> Non
             traj = solve(dataclasses.replace(plan, record_mode=RECORD_STEPS))
         else:
             traj = solve(dataclasses.replace(plan, record_mode=RECORD_RATE, record_dt_s=2e-3))
-        assert _summary(traj) == want, key
-        if key in expected["digests"]:
-            assert _digest(traj) == expected["digests"][key], key
+        if exact:
+            assert _summary(traj) == want, key
+            if key in expected["digests"]:
+                assert _digest(traj) == expected["digests"][key], key
+        else:
+            assert _close(_summary(traj), want), key
         checked += 1
     assert checked == 236
+
+
+def test_every_platforms_recording_agrees_within_rounding() -> None:
+    """The recordings of commit 86ab6d9 on other platforms agree with this platform's results
+    within rounding (:func:`_close`), every count exact; and :func:`_close` refuses a count or
+    a metric that moved."""
+    from tools.kernel_fingerprint import _summary, deliveries, platform
+
+    fixture = json.loads(
+        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
+    )
+    plans = dict(deliveries())
+    here = platform()
+    others = [v for v in fixture["variants"] if v["platform"] != here]
+    for variant in others:
+        for key, want in variant["summaries"].items():
+            name, mode = key.split("|")
+            if mode == "summary-auto":
+                assert _close(_summary(solve(plans[name])), want), key
+    want = fixture["variants"][0]["summaries"]["case16-as_written|summary-auto"]
+    assert _close(dict(want), want)
+    assert not _close({**want, "n_rhs": want["n_rhs"] + 1}, want)
+    moved = float.fromhex(want["hook_m"]) * (1 + 1e-7)
+    assert not _close({**want, "hook_m": moved.hex()}, want)

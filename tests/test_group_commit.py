@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import errno
 import threading
 from pathlib import Path
 
 from bowlrec.api import simulate_into
-from bowlrec.archive import Archive
+from bowlrec.archive import Archive, faults
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import ArchiveWriteError
 from bowlrec.spec import Scene
@@ -69,21 +70,25 @@ def test_the_same_scene_from_many_threads_is_added_once(tmp_path: Path) -> None:
 
 
 def test_a_failed_write_reaches_every_waiter_and_loses_nothing(tmp_path: Path) -> None:
+    """A full disk while the group's segment is written: every waiting thread gets the one
+    ArchiveWriteError, no temporary is left, the run archived before stays."""
     archive = Archive(tmp_path / "a")
     kept = simulate_into(archive, _scene(100))
     group = GroupCommitter(archive).start()
 
-    def broken(*args: object, **kwargs: object) -> None:
-        raise ArchiveWriteError("disk full (test)")
+    def disk_full(**_context: object) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device")
 
-    archive.seal = broken  # type: ignore[method-assign,assignment]
     try:
-        errors = _run_threads(
-            6, lambda i: _error(lambda: simulate_into(archive, _scene(i), group=group))
-        )
+        with faults.armed("segment-written", disk_full):
+            errors = _run_threads(
+                6, lambda i: _error(lambda: simulate_into(archive, _scene(i), group=group))
+            )
     finally:
         group.close()
-    assert all(isinstance(e, ArchiveWriteError) for e in errors)
+    assert all(isinstance(e, ArchiveWriteError) for e in errors), errors
+    assert "No space left on device" in str(errors[0])
+    assert not list((tmp_path / "a").rglob("*.part"))
     assert archive.has_run(kept.run_id) and archive.info()["runs"] == 1
 
 

@@ -22,16 +22,15 @@ from typer.testing import CliRunner
 
 import bowlrec
 from bowlrec.cli import app
-from bowlrec.sinks import RunData
-from bowlrec.sinks.plot import (
+from bowlrec.figures.numbered import NUMBERED_LEGEND_WIDTH_IN, NUMBERED_LINE_STYLES
+from bowlrec.figures.trajectory import (
     MAX_PLAIN_RUNS,
     N_AXIS_ARROWS,
-    NUMBERED_LEGEND_WIDTH_IN,
-    NUMBERED_LINE_STYLES,
     axis_arrow_samples,
     runs_figure,
 )
 from bowlrec.spec import Scene
+from bowlrec.spec.run import RunData
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE16 = ROOT / "examples/paper/case16.json"

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import http.client
 import json
+import re
 import select
 import socket
 import subprocess
@@ -312,6 +313,119 @@ def test_sessions_expire_and_are_not_needed_without_a_token(tmp_path: Path) -> N
         assert r.json() == {"auth": False, "expires_at": None} and "set-cookie" not in r.headers
 
 
+#: every route of the app with a token, and what a request that carries neither the bearer
+#: token nor a session cookie gets: "open" (docs/service.md "The token": /health, the API
+#: docs, the static and viewer files), "token in body" (POST /session: it takes the token as
+#: its body instead, and is 401 without it) or "401" (everything else, the pages included:
+#: their sign-in form is a 401); a route missing here fails the test
+ROUTE_AUTH: dict[tuple[str, str], str] = {
+    ("GET", "/health"): "open",
+    ("GET", "/openapi.json"): "open",
+    ("GET", "/docs"): "open",
+    ("GET", "/redoc"): "open",
+    ("GET", "/static"): "open",
+    ("GET", "/static/apidocs"): "open",
+    ("GET", "/viewer/{name:path}"): "open",
+    ("POST", "/session"): "token in body",
+    ("DELETE", "/session"): "401",
+    ("GET", "/"): "401",
+    ("GET", "/ui/runs/{run_id}"): "401",
+    ("GET", "/ui/compare"): "401",
+    ("GET", "/ui/balls"): "401",
+    ("GET", "/ui/patterns"): "401",
+    ("GET", "/ui/jobs"): "401",
+    ("GET", "/ui/jobs/{job_id}"): "401",
+    ("POST", "/runs"): "401",
+    ("GET", "/runs"): "401",
+    ("GET", "/runs/{run_id}"): "401",
+    ("GET", "/runs/{run_id}/spec"): "401",
+    ("GET", "/runs/{run_id}/files/{kind}"): "401",
+    ("GET", "/runs/{run_id}/recording.rrd"): "401",
+    ("GET", "/runs/{run_id}/figure.{fmt}"): "401",
+    ("GET", "/runs/{run_id}/report"): "401",
+    ("GET", "/compare/figure.{fmt}"): "401",
+    ("GET", "/balls"): "401",
+    ("GET", "/balls/export"): "401",
+    ("POST", "/balls/import"): "401",
+    ("GET", "/balls/{ref}"): "401",
+    ("POST", "/balls"): "401",
+    ("DELETE", "/balls/{ref}"): "401",
+    ("GET", "/balls/{ref}/figure.{fmt}"): "401",
+    ("GET", "/patterns"): "401",
+    ("GET", "/patterns/{name}/figure.{fmt}"): "401",
+    ("POST", "/jobs"): "401",
+    ("GET", "/jobs"): "401",
+    ("GET", "/jobs/{job_id}"): "401",
+    ("POST", "/jobs/{job_id}/cancel"): "401",
+    ("POST", "/jobs/{job_id}/resume"): "401",
+    ("GET", "/jobs/{job_id}/results"): "401",
+    ("GET", "/jobs/{job_id}/figure.{fmt}"): "401",
+    ("GET", "/jobs/{job_id}/events"): "401",
+}
+#: a value for each path parameter of the routes above
+_PATH_VALUES = {"fmt": "svg", "kind": "csv", "name:path": "nope", "name": "house_shot"}
+
+
+def _routes(app: Any) -> list[tuple[str, str]]:
+    """(method, path) of every route of ``app``; a mounted directory as GET of its path. An
+    included router is a route of its own in newer FastAPI versions: its routes are listed."""
+    from starlette.routing import Mount
+
+    found = []
+    for route in app.routes:
+        if isinstance(route, Mount):
+            found.append(("GET", route.path))
+        elif hasattr(route, "effective_route_contexts"):
+            for context in route.effective_route_contexts():
+                methods = context.original_route.methods - {"HEAD"}
+                found += [(m, context.path) for m in sorted(methods)]
+        else:
+            found += [(m, route.path) for m in sorted(route.methods - {"HEAD"})]
+    return found
+
+
+def test_every_route_needs_the_token_unless_the_docs_exempt_it(tmp_path: Path) -> None:
+    """A request with neither the token nor a session cookie, to every route of a server with a
+    token: 401 exactly where :data:`ROUTE_AUTH` says so, and nothing but its "open" routes
+    answers without one (the static and viewer files are asked for a file that is not there)."""
+    app = create_app(tmp_path / "archive", TOKEN, warm_up=False)
+    routes = _routes(app)
+    assert len(routes) == len(set(routes))
+    assert sorted(routes) == sorted(ROUTE_AUTH), "a route was added or removed: say in ROUTE_AUTH"
+    wrong: list[str] = []
+    with TestClient(app, base_url="http://127.0.0.1", raise_server_exceptions=False) as client:
+        for (method, path), expected in ROUTE_AUTH.items():
+            url = re.sub(r"\{([^}]+)\}", lambda m: _PATH_VALUES.get(m[1], "x0123"), path)
+            if url in ("/static", "/static/apidocs"):
+                url += "/nope.css"
+            answer = client.request(method, url)
+            got = "401" if answer.status_code == 401 else "open"
+            if expected == "token in body" and got == "401":
+                answer = client.request(method, url, json={"token": TOKEN})
+                got = "token in body" if answer.status_code == 200 else "401"
+                client.cookies.clear()
+            if got != expected:
+                wrong.append(f"{method} {path}: {answer.status_code} (expected {expected})")
+            page = path == "/" or path.startswith("/ui/")
+            if got == "401" and page:  # the sign-in form
+                assert 'name="token"' in answer.text, f"{method} {path}"
+            elif got == "401":
+                assert answer.headers.get("www-authenticate") == "Bearer", f"{method} {path}"
+    assert not wrong, "\n".join(wrong)
+
+
+def test_closing_a_session_needs_the_session_or_the_token(token_app: TestClient) -> None:
+    """``DELETE /session`` without the token or a valid session cookie is 401 and clears nothing;
+    with the bearer header it answers (and there is no session to close)."""
+    anonymous = token_app.delete("/session")
+    assert anonymous.status_code == 401 and "set-cookie" not in anonymous.headers
+    token_app.cookies.set("bowlrec_session", "forged")
+    assert token_app.delete("/session").status_code == 401
+    token_app.cookies.clear()
+    bearer = token_app.delete("/session", headers={"Authorization": f"Bearer {TOKEN}"})
+    assert bearer.status_code == 200 and bearer.json() == {"closed": False}
+
+
 # -- serve: the strong token, flags ----------------------------------------------------------------
 
 
@@ -441,7 +555,7 @@ def test_404_and_other_error_details_name_no_server_path(
                 "already archived was lost"
             )
 
-        monkeypatch.setattr(state.archive, "simulate", unwritable)
+        monkeypatch.setattr(state.commits, "add", unwritable)  # sealing the summary-only run
         r = client.post("/runs", json={"options": {"record": "summary"}})
         assert r.status_code == 507 and "ARCHIVE/segments: could not write" in r.json()["detail"]
         details.append(r.json()["detail"])

@@ -15,18 +15,17 @@ from matplotlib.quiver import Quiver
 
 import bowlrec
 from bowlrec.errors import SamplesRequiredError
-from bowlrec.paper import paper_scene
-from bowlrec.sinks import RunData
-from bowlrec.sinks.plot import (
+from bowlrec.figures.series import plot_series, series_figure
+from bowlrec.figures.trajectory import (
     N_AXIS_ARROWS,
     PAPER_EXAGGERATION,
     axis_arrow_samples,
     plot_runs,
-    plot_series,
     runs_figure,
-    series_figure,
 )
+from bowlrec.paper import paper_scene
 from bowlrec.spec import Scene
+from bowlrec.spec.run import RunData
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 FIG6_CASES = (9, 10, 14, 16)

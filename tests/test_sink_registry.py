@@ -51,6 +51,18 @@ def run() -> RunData:
     return RunData(scene, scene.resolve(), bowlrec.simulate(scene))
 
 
+def test_the_plot_sink_writes_what_the_figures_render() -> None:
+    """PNG and SVG are written by the figures package (a layer below the writers), which
+    renders exactly the plot sink's suffixes."""
+    from bowlrec.figures.render import FORMATS
+
+    plot = sink_named("plot")
+    assert plot.module == "bowlrec.figures.trajectory"
+    assert plot.suffixes == tuple(f".{fmt}" for fmt in FORMATS)
+    assert callable(plot.attribute(plot.writer)) and plot.many is not None
+    assert callable(plot.attribute(plot.many))
+
+
 def test_every_suffix_finds_its_sink() -> None:
     assert {s.name: s.suffixes for s in SINKS} == SUFFIXES
     assert known_suffixes() == [x for suffixes in SUFFIXES.values() for x in suffixes]

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from bowlrec.cli.schemas import SCHEMAS, export_schemas, schema_file
 from bowlrec.paper import TABLE_III, paper_scene, write_paper_examples
-from bowlrec.spec import load_scene
-from bowlrec.spec.schema_export import SCHEMAS, export_schemas, schema_file
+from bowlrec.scene_input import parse_scene_file
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -50,5 +50,5 @@ def test_committed_paper_examples_are_up_to_date(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("case", [c.case for c in TABLE_III])
 def test_paper_examples_load_back(case: int) -> None:
-    loaded = load_scene(ROOT / "examples" / "paper" / f"case{case:02d}.json")
+    loaded = parse_scene_file(ROOT / "examples" / "paper" / f"case{case:02d}.json").scene
     assert loaded == paper_scene(case)

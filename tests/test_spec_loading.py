@@ -1,4 +1,5 @@
-"""Scene files: JSON and YAML load into validated scenes and round-trip."""
+"""Scene files: JSON and YAML load into validated scenes (through the one way in,
+:mod:`bowlrec.scene_input`, over the spec's file reader) and round-trip."""
 
 from __future__ import annotations
 
@@ -9,8 +10,9 @@ from pathlib import Path
 
 import pytest
 import yaml
-from pydantic import ValidationError
 
+from bowlrec.errors import SceneInputError
+from bowlrec.scene_input import parse_scene_file
 from bowlrec.spec import (
     Ball,
     Delivery,
@@ -20,8 +22,13 @@ from bowlrec.spec import (
     Zone,
     ZoneFriction,
     dump_scene_json,
-    load_scene,
 )
+from bowlrec.spec.loading import read_mapping
+
+
+def load_scene(path: Path | str) -> Scene:
+    """The physical scene of a scene file, as bowlrec.simulate and the CLI read it."""
+    return parse_scene_file(path).scene
 
 
 def _rich_scene() -> Scene:
@@ -75,17 +82,26 @@ def test_hand_written_yaml(tmp_path: Path) -> None:
     assert scene.resolve().constant_friction
 
 
-def test_invalid_file_raises_validation_error(tmp_path: Path) -> None:
+def test_invalid_file_names_the_file_and_the_field(tmp_path: Path) -> None:
     path = tmp_path / "bad.json"
     path.write_text(json.dumps({"ball": {"mass_kg": -1}}))
-    with pytest.raises(ValidationError, match="mass_kg"):
+    with pytest.raises(SceneInputError) as info:
         load_scene(path)
+    assert str(info.value) == f"{path}: ball.mass_kg: Input should be greater than 0 (got -1)"
+
+
+def test_the_reader_parses_without_validating(tmp_path: Path) -> None:
+    path = tmp_path / "any.yaml"
+    path.write_text("ball: {mass_kg: -1}\nnot_a_field: 1\n")
+    assert read_mapping(path) == {"ball": {"mass_kg": -1}, "not_a_field": 1}
 
 
 def test_unsupported_suffix(tmp_path: Path) -> None:
     path = tmp_path / "scene.toml"
     path.write_text("")
     with pytest.raises(ValueError, match="unsupported scene file type"):
+        load_scene(path)
+    with pytest.raises(SceneInputError, match=r"scene\.toml: unsupported scene file type"):
         load_scene(path)
 
 
@@ -103,9 +119,13 @@ def test_dump_is_canonical() -> None:
 
 @pytest.mark.process  # a fresh interpreter's modules
 def test_spec_does_not_import_numba() -> None:
+    """The scene stack's bottom loads neither numba nor the layers above it, and PyYAML only
+    for a YAML file."""
     code = (
         "import sys, bowlrec.spec, bowlrec.paper\n"
         "bowlrec.spec.Scene().resolve()\n"
         "assert 'numba' not in sys.modules, 'numba imported'\n"
+        "above = ('yaml', 'bowlrec.bowling', 'bowlrec.scene_input')\n"
+        "assert not [m for m in above if m in sys.modules], sorted(sys.modules)\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True)

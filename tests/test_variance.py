@@ -3,15 +3,20 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.colors import to_rgb
+from matplotlib.patches import Rectangle
 from typer.testing import CliRunner
 
 import bowlrec
+from bowlrec.bowling.pocket import POCKET
 from bowlrec.bowling.scene import BowlerScene
-from bowlrec.bowling.variance import PRESETS, ReleaseScatter, release_scatter
+from bowlrec.bowling.shot import Shot
+from bowlrec.bowling.variance import PRESETS, ReleaseScatter, draw_releases, release_scatter
 from bowlrec.cli import app
 
 EXAMPLE = Path(__file__).parents[1] / "examples" / "bowler" / "pocket-right.json"
@@ -56,17 +61,120 @@ def test_same_seed_same_result() -> None:
     assert np.array_equal(a.entry_board, b.entry_board, equal_nan=True)
 
 
-def test_variance_command(tmp_path: Path) -> None:
+def _independent_entries(
+    scene: BowlerScene, preset: str, n: int, seed: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Entry board and angle of the command's repeats (the same draws), each run on its own
+    through the public path (``BowlerScene.to_scene`` and ``bowlrec.simulate``), not through
+    :class:`~bowlrec.bowling.shot.Shot`'s plans and the many-delivery kernel."""
+    launch = Shot(scene).launch_angle(scene.delivery)
+    repeats = draw_releases(scene.delivery, launch, PRESETS[preset], np.random.default_rng(seed), n)
+    summary_only = scene.options.model_copy(update={"record": "summary"})
+    boards, angles = [], []
+    for repeat in repeats:
+        one = scene.model_copy(update={"delivery": repeat, "options": summary_only})
+        s = bowlrec.simulate(one.to_scene()).summary
+        assert s.outcome == "pins" and s.y_end_m is not None and s.pocket_deg is not None
+        boards.append(s.y_end_m / (41.5 * 0.0254 / 39.0) + 0.5)  # right-hander: board 1 at y=0
+        angles.append(s.pocket_deg)  # a right-hander's entry angle: toward +y
+    return np.array(boards), np.array(angles)
+
+
+def _in_window(
+    board: np.ndarray, angle: np.ndarray, boards: tuple[float, float], degs: tuple[float, float]
+) -> np.ndarray:
+    return (board >= boards[0]) & (board <= boards[1]) & (angle >= degs[0]) & (angle <= degs[1])
+
+
+def test_variance_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The command's shares, statistics and figure against an independent count of the same
+    200 repeats (seed 0) run one by one: 21 of them enter the default window (boards 17-18,
+    4-6 deg), 25 have the board and 139 the angle in their window, all reach the pins. The
+    two paths give the same entry boards and angles to the last bit (the same plans), and the
+    closest repeat to an edge of the window is 0.002 deg from it, so the count is exact."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    drawn: list[Figure] = []
+    savefig = Figure.savefig
+
+    def spy(self: Figure, *args: object, **kwargs: object) -> None:
+        drawn.append(self)
+        savefig(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Figure, "savefig", spy)
+    n = 200
+    board, angle = _independent_entries(_scene(), "pro", n, seed=0)
+    assert (POCKET.board_min, POCKET.board_max) == (17.0, 18.0)
+    assert (POCKET.angle_min_deg, POCKET.angle_max_deg) == (4.0, 6.0)
+    inside = _in_window(board, angle, (17.0, 18.0), (4.0, 6.0))
+    k = int(inside.sum())
+    assert 0 < k < n  # both kinds of repeat: the share is not trivially 0 or 1
+    # the window is not decided by one of its two conditions alone
+    assert int(_in_window(board, angle, (17.0, 18.0), (-90.0, 90.0)).sum()) > k
+    assert int(_in_window(board, angle, (0.0, 40.0), (4.0, 6.0)).sum()) > k
+
     runner = CliRunner()
     fig = tmp_path / "scatter.png"
     res = runner.invoke(
         app,
-        ["variance", str(EXAMPLE), "--preset", "pro", "--n", "200", "--plot", str(fig), "--json"],
+        ["variance", str(EXAMPLE), "--preset", "pro", "--n", str(n), "--plot", str(fig), "--json"],
     )
     assert res.exit_code == 0, res.output
     doc = json.loads(res.output)
-    assert doc["n"] == 200 and 0.0 <= doc["pocket_share"] <= 1.0
+    assert doc["n"] == n and doc["seed"] == 0 and doc["preset"] == "pro"
+    assert doc["scatter"] == PRESETS["pro"].model_dump()
+    assert doc["pocket_share"] == k / n
+    assert doc["pins_share"] == 1.0
+    assert doc["pocket_share_se"] == pytest.approx(math.sqrt(k / n * (1 - k / n) / n), rel=1e-12)
+    for name, x in (("entry_board", board), ("entry_angle_deg", angle)):
+        assert doc[name] == pytest.approx(
+            {
+                "mean": x.mean(),
+                "std": x.std(ddof=1),
+                "p05": np.quantile(x, 0.05),
+                "p95": np.quantile(x, 0.95),
+            },
+            rel=1e-9,
+        ), name
     assert fig.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+    # the figure: the repeats in the window green, the others gray, the window drawn
+    assert len(drawn) == 1
+    (ax,) = drawn[0].axes
+    out_pts, in_pts = ax.collections
+    assert in_pts.get_label() == "in the pocket window"
+    assert out_pts.get_label() == "outside the pocket"
+    assert np.allclose(np.asarray(in_pts.get_facecolor())[0, :3], to_rgb("tab:green"))
+    assert np.allclose(np.asarray(out_pts.get_facecolor())[0, :3], to_rgb("tab:gray"))
+    assert np.array_equal(in_pts.get_offsets(), np.column_stack([board, angle])[inside])
+    assert np.array_equal(out_pts.get_offsets(), np.column_stack([board, angle])[~inside])
+    (window,) = ax.patches
+    assert isinstance(window, Rectangle)
+    assert (window.get_xy(), window.get_width(), window.get_height()) == ((17.0, 4.0), 1.0, 2.0)
+    assert ax.xaxis_inverted()
+    share = f"{100 * k / n:.1f} % in the pocket"
+    assert ax.get_title() == (
+        f"right-hander-pocket, pro: {share} (± {100 * doc['pocket_share_se']:.1f}), "
+        f"100.0 % reach the pins, n = {n}"
+    )
+
+    # the words: the same share, and another window given by options counts the same repeats
+    res = runner.invoke(
+        app,
+        ["variance", str(EXAMPLE), "--preset", "pro", "--n", str(n), "--board-window", "16",
+         "19", "--angle-window", "3.5", "5"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    k2 = int(_in_window(board, angle, (16.0, 19.0), (3.5, 5.0)).sum())
+    assert k2 != k
+    line = res.output.splitlines()[1]
+    assert line.startswith("in the pocket (board 17.5 (16.0-19.0), 5.0 deg (3.5-5.0)): ")
+    assert f": {100 * k2 / n:.1f} % " in line, (line, k2)
+    assert line.endswith("reach the pins: 100.0 %")
+
     bad = runner.invoke(app, ["variance", str(EXAMPLE), "--preset", "wild"])
     assert bad.exit_code == 2 and "robot, pro, league" in bad.output
 

@@ -1,4 +1,5 @@
-"""Figures of the web pages as bytes (bowlrec.web.figures)."""
+"""Figures of the web pages as bytes: :mod:`bowlrec.figures` rendered by
+:func:`bowlrec.figures.render.figure_bytes`, as the web API serves them."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import math
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
+from typing import Any
 
 import pytest
 from helpers.scene_builders import scene as scene_dict
@@ -15,17 +17,34 @@ from bowlrec.archive.replay import simulate_sampled
 from bowlrec.bowling.ball import BowlerBall
 from bowlrec.bowling.layout import PAP, DualAngle
 from bowlrec.bowling.oil import preset, preset_names
-from bowlrec.sinks.common import RunData
+from bowlrec.figures import ball as ball_map
+from bowlrec.figures import oil, sweep, trajectory
+from bowlrec.figures.render import figure_bytes
 from bowlrec.spec import Scene
-from bowlrec.web.figures import (
-    ball_figure,
-    compare_figure,
-    pattern_figure,
-    run_figure,
-    sweep_figure,
-)
+from bowlrec.spec.run import RunData
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def run_figure(run: RunData, fmt: str) -> bytes:
+    return figure_bytes(trajectory.runs_figure([run]), fmt)
+
+
+def compare_figure(runs: list[RunData], fmt: str) -> bytes:
+    return figure_bytes(trajectory.runs_figure(runs), fmt)
+
+
+def pattern_figure(pattern: Any, fmt: str, *, title: str | None = None) -> bytes:
+    return figure_bytes(oil.pattern_figure(pattern, title=title), fmt)
+
+
+def sweep_figure(x: list[float], y: list[float | None], *, fmt: str, **labels: Any) -> bytes:
+    return figure_bytes(sweep.sweep_figure(x, y, **labels), fmt)
+
+
+def ball_figure(entry_or_ball: Any, fmt: str, **layout: Any) -> bytes | None:
+    fig = ball_map.ball_figure(entry_or_ball, **layout)
+    return None if fig is None else figure_bytes(fig, fmt)
 
 
 def _svg_root(data: bytes) -> ET.Element:
@@ -57,9 +76,59 @@ def runs() -> list[RunData]:
 
 @pytest.mark.process  # a fresh interpreter's modules
 def test_import_does_not_import_matplotlib() -> None:
-    code = "import sys, bowlrec.web.figures; print('matplotlib' in sys.modules)"
+    """The figures package, and the layers that call it, import matplotlib only when a figure
+    is drawn."""
+    code = (
+        "import sys, bowlrec.figures, bowlrec.web.api, bowlrec.sinks.registry, "
+        "bowlrec.bowling.variance, bowlrec.session.runner, bowlrec.cli.aim, bowlrec.cli.session; "
+        "print('matplotlib' in sys.modules)"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_matplotlib_only_in_the_figures_package_and_never_pyplot() -> None:
+    """Only ``bowlrec/figures/`` imports matplotlib, and nothing imports pyplot or switches
+    matplotlib's global backend (the service draws in several threads)."""
+    import ast
+    from pathlib import Path
+
+    import bowlrec
+
+    package = Path(bowlrec.__file__).parent
+    found = []
+    for path in sorted(package.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        inside = path.relative_to(package).parts[0] == "figures"
+        for node in ast.walk(tree):
+            names = []
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            elif isinstance(node, ast.Attribute) and node.attr == "use":
+                names = [ast.unparse(node)]
+            for name in names:
+                global_state = "pyplot" in name or name == "matplotlib.use"
+                outside = name.split(".")[0] == "matplotlib" and not inside
+                if global_state or outside:
+                    found.append(f"{path.relative_to(package)}:{node.lineno}: {name}")
+    assert found == []
+
+
+def test_figures_render_the_same_bytes_in_threads_at_once() -> None:
+    """Threads drawing and rendering at once (as the service's do) get the bytes a single
+    render gives: nothing global is left half set."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def draw(k: int) -> bytes:
+        fmt = "svg" if k % 2 == 0 else "png"
+        return sweep_figure([1.0, 2.0, 3.0], [3.0, 1.0, 2.0], x_label="a", y_label="b", fmt=fmt)
+
+    expected = {0: draw(0), 1: draw(1)}
+    with ThreadPoolExecutor(8) as pool:
+        got = list(pool.map(draw, range(32)))
+    assert all(data == expected[k % 2] for k, data in enumerate(got))
 
 
 def test_run_figure_svg_is_deterministic_and_png_decodes(runs: list[RunData]) -> None:
@@ -84,7 +153,7 @@ def test_compare_figure(runs: list[RunData], n: int) -> None:
 
 def test_bad_format_raises(runs: list[RunData]) -> None:
     with pytest.raises(ValueError, match="fmt"):
-        run_figure(runs[0], "pdf")  # type: ignore[arg-type]
+        run_figure(runs[0], "pdf")
 
 
 @pytest.mark.parametrize("name", preset_names())

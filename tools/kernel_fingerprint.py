@@ -3,6 +3,7 @@
     PYTHONPATH=TREE python tools/kernel_fingerprint.py OUT.json [--quick]
     python tools/kernel_fingerprint.py --compare A.json B.json
     python tools/kernel_fingerprint.py --subset FULL.json tests/fixtures/kernel-fingerprint-*.json
+    (--replace: drop the other platforms' recordings)
 
 A developer script: a change to ``bowlrec/core`` that must not change default results is run
 here before and after (the "before" tree checked out with ``git worktree add``, run with
@@ -19,6 +20,15 @@ and turns), and all summary-only plans through the many-delivery kernel (serial 
 Written per run: the summary (every metric, floats exactly as ``float.hex``) with its
 right-hand-side, step and event counts, and for recorded runs a SHA-256 digest of every sample
 array, event and observation. Batch outputs are digested whole.
+
+Bits depend on the platform as well as on the code: numba compiles the kernels for the host
+CPU (``llvmlite``'s host CPU name: instruction selection and vectorisation differ between,
+say, a Haswell and an Emerald Rapids core), and NumPy's OpenBLAS picks its kernels by CPU too
+(the 3 x 3 products and norms of ``resolve()`` and of the random deliveries). Measured between
+two such machines: every solver count equal, metrics within 1e-9 relative, sample digests
+different. A fingerprint therefore records :func:`platform`, and the test fixture keeps one
+variant per platform it was recorded on (``--subset`` adds or replaces the variant of the full
+fingerprint's platform); on a platform with no variant the test compares within a tolerance.
 """
 
 from __future__ import annotations
@@ -155,10 +165,39 @@ def fingerprint(quick: bool = False) -> dict[str, Any]:
     return {"summaries": summaries, "digests": digests, "batches": batches}
 
 
+def platform() -> dict[str, str]:
+    """What the fingerprint's bits depend on besides the code: the CPU the kernels are compiled
+    for, the OpenBLAS kernels NumPy uses, and the versions of the compiler stack."""
+    import llvmlite
+    import llvmlite.binding
+    import numba
+    from threadpoolctl import threadpool_info
+
+    # NumPy's own BLAS (SciPy, once imported, loads a second copy that NumPy does not use)
+    numpy_dir = str(Path(np.__file__).resolve().parent.parent)
+    blas = sorted(
+        {
+            f"{info.get('internal_api')} {info.get('architecture')}"
+            for info in threadpool_info()
+            if info.get("user_api") == "blas"
+            and str(Path(info.get("filepath", "")).resolve()).startswith(numpy_dir + "/numpy")
+        }
+    )
+    return {
+        "host_cpu": llvmlite.binding.get_host_cpu_name(),
+        "blas": ", ".join(blas) or "none",
+        "numpy": np.__version__,
+        "numba": numba.__version__,
+        "llvmlite": llvmlite.__version__,
+    }
+
+
 def compare(a_path: str, b_path: str) -> int:
     a = json.loads(Path(a_path).read_text())
     b = json.loads(Path(b_path).read_text())
     bad = 0
+    if a.get("platform") != b.get("platform"):
+        print(f"platforms differ: {a.get('platform')} vs {b.get('platform')}")
     for section in ("summaries", "digests", "batches"):
         ka, kb = set(a[section]), set(b[section])
         if ka != kb:
@@ -175,19 +214,37 @@ def compare(a_path: str, b_path: str) -> int:
     return 0 if bad == 0 else 1
 
 
-def subset(full_path: str, fixture_path: str, source: str) -> int:
-    """Rewrite the test fixture ``fixture_path`` (the subset of summaries and digests that
-    ``tests/test_external_terms.py`` checks) with the values of the fingerprint ``full_path``:
-    the same keys, new values (after a deliberate change of the default physics)."""
+def random_run_id() -> str:
+    """The run ID of the first random delivery (its plan goes through OpenBLAS)."""
+    from bowlrec.archive import run_id
+    from bowlrec.testing import random_plans
+
+    return run_id(random_plans(1)[0][1])
+
+
+def subset(full_path: str, fixture_path: str, source: str, *, replace: bool = False) -> int:
+    """Add to the test fixture ``fixture_path`` (the subset of summaries and digests that
+    ``tests/test_external_terms.py`` checks) the variant of the fingerprint ``full_path``'s
+    platform: the fixture's keys with the full fingerprint's values. ``replace``: drop every
+    other variant (after a deliberate change of the default physics)."""
     full = json.loads(Path(full_path).read_text())
-    old = json.loads(Path(fixture_path).read_text())
-    new = {
-        "source": source,
-        "summaries": {k: full["summaries"][k] for k in old["summaries"]},
-        "digests": {k: full["digests"][k] for k in old["digests"]},
+    fixture = json.loads(Path(fixture_path).read_text())
+    if "platform" not in full:
+        raise SystemExit(f"{full_path}: no platform recorded; fingerprint it again")
+    first = fixture["variants"][0]
+    variant = {
+        "platform": full["platform"],
+        "random_run_id": full["random_run_id"],
+        "summaries": {k: full["summaries"][k] for k in first["summaries"]},
+        "digests": {k: full["digests"][k] for k in first["digests"]},
     }
+    kept = [] if replace else [v for v in fixture["variants"] if v["platform"] != full["platform"]]
+    new = {"source": source or fixture["source"], "variants": [*kept, variant]}
     Path(fixture_path).write_text(json.dumps(new, indent=0, sort_keys=True))
-    print(f"{fixture_path}: {len(new['summaries'])} summaries, {len(new['digests'])} digests")
+    print(
+        f"{fixture_path}: {len(new['variants'])} platform variant(s), "
+        f"{len(variant['summaries'])} summaries and {len(variant['digests'])} digests each"
+    )
     return 0
 
 
@@ -203,17 +260,22 @@ def main(argv: list[str] | None = None) -> int:
         help="rewrite a test fixture's keys from a full fingerprint",
     )
     ap.add_argument("--source", default="", help="with --subset: where FULL was computed")
+    ap.add_argument(
+        "--replace", action="store_true", help="with --subset: drop the other platforms' variants"
+    )
     args = ap.parse_args(argv)
     if args.compare:
         return compare(*args.compare)
     if args.subset:
-        return subset(*args.subset, args.source)
+        return subset(*args.subset, args.source, replace=args.replace)
     if not args.out:
         ap.error("OUT.json is required")
     import bowlrec
 
     fp = fingerprint(args.quick)
     fp["bowlrec"] = str(Path(bowlrec.__file__).resolve().parent)
+    fp["platform"] = platform()
+    fp["random_run_id"] = random_run_id()
     Path(args.out).write_text(json.dumps(fp, indent=1, sort_keys=True) + "\n")
     print(
         f"{args.out}: {len(fp['summaries'])} summaries, {len(fp['digests'])} digests, "

@@ -1,12 +1,12 @@
 """The package's layers, written once, and a check that its imports keep to them.
 
 Data flows one way (docs/architecture.md): a module may import its own unit (the package or
-module it belongs to) and the units of lower floors, never a unit of its own floor or above,
-and no chain of imports may lead back to where it started. Imports are read from the source
+module it belongs to) and the units of lower floors, never a unit of its own floor or above, and
+no chain of imports may lead back to where it started. Imports are read from the source
 (:mod:`ast`), at module level and inside functions alike; imports under ``if TYPE_CHECKING:``
-are type-only and allowed anywhere but in the two lowest floors. A string constant that is the whole dotted name of a
-bowlrec module (a format's writer module in ``bowlrec.sinks.registry``, an importlib target)
-counts as an import of it.
+are type-only and allowed anywhere but in the two lowest floors. A string constant that is the
+whole dotted name of a bowlrec module (a format's writer module in ``bowlrec.sinks.registry``,
+an importlib target) counts as an import of it.
 
 ``python -m tools.layers`` prints the floors and every breach (exit 1 if any);
 ``python -m tools.layers --markdown`` prints the table of docs/architecture.md's ``layers``
@@ -46,7 +46,11 @@ FLOORS: list[tuple[str, tuple[str, ...], str]] = [
         "Table III compared; reference deliveries and the paper's RK4 scheme",
     ),
     ("bowlers", ("bowlrec.bowling",), "bowlers' language: balls, layouts, deliveries, oil, aim"),
-    ("figures", ("bowlrec.figures",), "every picture (matplotlib), from data the layers below give"),
+    (
+        "figures",
+        ("bowlrec.figures",),
+        "every picture (matplotlib) from the data below",
+    ),
     ("formats", ("bowlrec.sinks",), "one run written as HDF5, CSV, MCAP, rerun, NPZ, JSON, a plot"),
     ("intake", ("bowlrec.scene_input",), "the one way in for a scene: file or mapping -> Scene"),
     ("archive", ("bowlrec.archive",), "segments, the index, the ball library, repair"),

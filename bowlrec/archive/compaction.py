@@ -15,18 +15,21 @@ from collections import defaultdict
 from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Any
 
-from bowlrec.archive.quarantine import QUARANTINE_FORMAT
 from bowlrec.atomic_files import atomic_path, fsync_dir
 from bowlrec.errors import RunDamagedError, SegmentError
 
+from . import faults
+from .directory import ArchiveDir
 from .index import transaction
-from .registry import register_segment
-from .segment import RunRecord, SegmentBuilder, SegmentInfo
-from .segment_file import SegmentFile
+from .maintenance import writer_index
+from .quarantine import QUARANTINE_FORMAT
+from .reading import load
 from .tombstones import TOMBSTONE_FORMAT, Tombstone, read_tombstones
+from .writing import seal
 
 if TYPE_CHECKING:
-    from .store import Archive
+    from .segment_file import SegmentFile
+    from .segment_format import RunRecord, SegmentInfo
 
 __all__ = ["compact"]
 
@@ -49,7 +52,7 @@ def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
     return [(r[0], r[1], r[3]) for r in rows if r[0] in chosen]
 
 
-def _carried(archive: Archive, con: Any, seg: SegmentFile, seg_id: str) -> list[RunRecord]:
+def _carried(d: ArchiveDir, con: Any, seg: SegmentFile, seg_id: str) -> list[RunRecord]:
     """The runs of a chosen segment to rewrite: its live runs, and its duplicate copies whose
     live copy does not read back (so repair can still fall back to them). Raises
     RunDamagedError when a live run of this segment is damaged."""
@@ -63,17 +66,21 @@ def _carried(archive: Archive, con: Any, seg: SegmentFile, seg_id: str) -> list[
         "SELECT run_id, row FROM shadowed WHERE segment_id = ?", (seg_id,)
     ).fetchall():
         try:
-            archive.load(run_id)
+            load(d, run_id)
         except (RunDamagedError, KeyError):
             records.append(seg.read_run(int(row)).to_record())
     return records
 
 
-def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
+def compact(d: ArchiveDir, *, target_runs: int = 10_000) -> dict[str, int]:
     """Rewrite and merge segments (see the module doc); counts of what was done. A segment
     that cannot be read whole is left as it is, for ``runs repair``."""
-    with archive.writer_lock():
-        con = archive.index_writer()
+    from .registry import register_segment
+    from .segment import SegmentBuilder
+    from .segment_file import SegmentFile
+
+    with d.writer_lock():
+        con = writer_index(d)
         chosen = _candidates(con, target_runs)
         groups: dict[str, list[tuple[str, str]]] = defaultdict(list)
         for seg_id, rel, prov in chosen:
@@ -91,12 +98,12 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
             builder = SegmentBuilder(provenance)
             for seg_id, rel in sorted(members):
                 try:
-                    with SegmentFile(archive.root / rel) as seg:
+                    with SegmentFile(d.root / rel) as seg:
                         if seg.unknown_groups():
                             # a later 2.x version's record types would not be carried over
                             skipped.append(seg_id)
                             continue
-                        records = _carried(archive, con, seg, seg_id)
+                        records = _carried(d, con, seg, seg_id)
                 except (SegmentError, OSError, RunDamagedError):
                     skipped.append(seg_id)  # left in place: `runs repair` quarantines damage
                     continue
@@ -105,10 +112,11 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
                     builder.append(record)
                     moved += 1
                     if len(builder) >= target_runs:
-                        sealed.append(archive.seal(builder))
+                        sealed.append(seal(d, builder))
                         builder = SegmentBuilder(provenance)
             if len(builder):
-                sealed.append(archive.seal(builder))
+                sealed.append(seal(d, builder))
+        faults.point("compaction-sealed")
         with transaction(con, write=True):
             for seg_id, _ in old:
                 con.execute(
@@ -118,14 +126,14 @@ def compact(archive: Archive, *, target_runs: int = 10_000) -> dict[str, int]:
                 con.execute("DELETE FROM shadowed WHERE segment_id = ?", (seg_id,))
                 con.execute("DELETE FROM segments WHERE segment_id = ?", (seg_id,))
             for info in sealed:
-                register_segment(
-                    con, info.path, str(info.path.relative_to(archive.root)), info=info
-                )
-        archive.close()
+                register_segment(con, info.path, d.relative(info.path), info=info)
+        faults.point("compaction-switched")
+        d.close()
         for _, rel in old:
-            (archive.root / rel).unlink(missing_ok=True)
-        fsync_dir(archive.segments_dir)  # the deletions reach the disk before the tombstones go
-        dropped = _drop_applied_tombstones(archive, con, {seg_id for seg_id, _ in old})
+            (d.root / rel).unlink(missing_ok=True)
+        fsync_dir(d.segments_dir)  # the deletions reach the disk before the tombstones go
+        faults.point("compaction-deleted")
+        dropped = _drop_applied_tombstones(d, con, {seg_id for seg_id, _ in old})
     return {
         "segments_rewritten": len(old),
         "segments_written": len(sealed),
@@ -139,7 +147,7 @@ def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
 
 
-def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
+def _keep_damage_records(d: ArchiveDir, entries: list[Tombstone]) -> None:
     """Damaged copies outlive their tombstones as quarantine reports (``runs list --damaged``
     still lists them after an index rebuild)."""
 
@@ -147,7 +155,7 @@ def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
     for e in entries:
         if e.reason.startswith("damaged"):
             by_segment[e.segment_id].append(e)
-    archive.quarantine_dir.mkdir(exist_ok=True)
+    d.quarantine_dir.mkdir(exist_ok=True)
     for seg_id, items in by_segment.items():
         report = {
             "format": QUARANTINE_FORMAT,
@@ -157,12 +165,12 @@ def _keep_damage_records(archive: Archive, entries: list[Tombstone]) -> None:
             "salvaged_into": None,
             "salvaged_runs": 0,
         }
-        target = archive.quarantine_dir / f"{seg_id}.compacted.json"
+        target = d.quarantine_dir / f"{seg_id}.compacted.json"
         with atomic_path(target) as tmp:
             tmp.write_text(json.dumps(report, indent=1) + "\n")
 
 
-def _drop_applied_tombstones(archive: Archive, con: Any, removed: set[str]) -> int:
+def _drop_applied_tombstones(d: ArchiveDir, con: Any, removed: set[str]) -> int:
     """Delete the tombstones of the segments this compaction deleted (index rows and files);
     the count of tombstone files deleted."""
 
@@ -171,11 +179,11 @@ def _drop_applied_tombstones(archive: Archive, con: Any, removed: set[str]) -> i
         con.executemany(
             "DELETE FROM tombstones WHERE segment_id = ?", [(seg_id,) for seg_id in removed]
         )
-    for path, entries in list(read_tombstones(archive.tombstones_dir)):
+    for path, entries in list(read_tombstones(d.tombstones_dir)):
         keep = [e for e in entries if e.segment_id not in removed]
         if len(keep) == len(entries):
             continue
-        _keep_damage_records(archive, [e for e in entries if e.segment_id in removed])
+        _keep_damage_records(d, [e for e in entries if e.segment_id in removed])
         if keep:
             doc = {"format": TOMBSTONE_FORMAT, "entries": [e.__dict__ for e in keep]}
             with atomic_path(path, hold_lock=True) as tmp:

@@ -16,13 +16,24 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
+
+from . import faults
+from .directory import ArchiveDir
+from .queries import locate, rows
+from .writing import new_builder, register, seal
 
 if TYPE_CHECKING:
-    from .segment import RunRecord
-    from .store import Archive
+    from .segment_format import RunRecord
 
 __all__ = ["GroupCommitter"]
+
+
+class _HasDirectory(Protocol):
+    """What holds an archive directory (an :class:`~bowlrec.archive.Archive`)."""
+
+    @property
+    def directory(self) -> ArchiveDir: ...
 
 
 @dataclass
@@ -37,14 +48,17 @@ class _Waiter:
 class GroupCommitter:
     """Seals runs added from many threads in shared segments (see the module docs).
 
-    ``max_runs``: runs per segment at most; ``durable``: fsync each segment. :meth:`start`
-    starts the committer thread (the first :meth:`add` does if needed); :meth:`close` stops it
-    after committing the runs already handed over, and a run added later is committed on its
-    own in the calling thread.
+    ``archive``: an :class:`~.directory.ArchiveDir` or what holds one (an
+    :class:`~bowlrec.archive.Archive`); ``max_runs``: runs per segment at most; ``durable``:
+    fsync each segment. :meth:`start` starts the committer thread (the first :meth:`add` does
+    if needed); :meth:`close` stops it after committing the runs already handed over, and a
+    run added later is committed on its own in the calling thread.
     """
 
-    def __init__(self, archive: Archive, *, max_runs: int = 1000, durable: bool = True) -> None:
-        self.archive = archive
+    def __init__(
+        self, archive: ArchiveDir | _HasDirectory, *, max_runs: int = 1000, durable: bool = True
+    ) -> None:
+        self.directory = archive if isinstance(archive, ArchiveDir) else archive.directory
         self.max_runs = max_runs
         self.durable = durable
         self._cond = threading.Condition()
@@ -101,21 +115,22 @@ class GroupCommitter:
 
     def _commit(self, batch: list[_Waiter]) -> None:
         """Seal and register the batch's runs (those not archived yet) as one segment."""
-        archive = self.archive
+        d = self.directory
         try:
-            found = archive.rows(w.record.run_id for w in batch)
-            builder = archive.builder()
+            found = rows(d, (w.record.run_id for w in batch))
+            builder = new_builder()
             fresh = [w for w in batch if w.record.run_id not in found]
             added = [w for w in fresh if builder.append(w.record)]
             info = None
             if len(builder):
-                info = archive.seal(builder, durable=self.durable)
-                archive.register([info])
+                info = seal(d, builder, durable=self.durable)
+                faults.point("group-commit-sealed", path=info.path)
+                register(d, [info])
                 self.commits += 1
                 self.committed_runs += len(builder)
             mine = {id(w) for w in added}
             for w in batch:
-                located = archive.locate(w.record.run_id)
+                located = locate(d, w.record.run_id)
                 w.path = located[2] if located is not None else None
                 w.added = id(w) in mine and info is not None and w.path == info.path
                 if w.path is None:

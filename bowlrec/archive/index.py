@@ -3,7 +3,7 @@
 Table ``runs`` is a rowid table: rows are appended in registration order, and the only index
 with random insert positions is the unique run-ID index (created-at and outcome indexes grow at
 their ends). The index is derived: everything in it is rebuilt from the segment files, the ball
-files and the tombstones (:mod:`bowlrec.archive.maintenance`). Listing or filtering a million
+files and the tombstones (:mod:`bowlrec.archive.rebuild`). Listing or filtering a million
 runs reads this file, never the segments. Writers hold the archive's writer lock and commit in
 ``BEGIN IMMEDIATE`` transactions (rollback journal, ``synchronous=FULL``); readers open the file
 read-only (``mode=ro``), so reading needs no write access, and a rebuilt index replaces the old

@@ -1,10 +1,13 @@
-"""Keeping the index in step with the data files: recovery after a kill, full rebuilds, and
-setting copies of runs aside (removal, damage).
+"""Keeping the index in step with the data files: the writer's index connection, recovery after
+a kill, full rebuilds, and setting copies of runs aside (removal, damage).
 
-- :func:`recover` (cheap, run by the first write of every process): delete temporaries of
-  killed writers, apply tombstone files, index ball files and sealed segments the index lacks.
-- :func:`rebuild_index`: a new index from the data files alone, written beside the old one and
-  renamed over it, so readers see the old index or the new one, never a partial one.
+- :func:`writer_index`: the index a writer uses. A missing or damaged index file is rebuilt
+  from the data files first, and the first write of a process recovers (below); what it did is
+  logged (logger ``bowlrec.archive``) and kept until an explicit command reports it.
+- :func:`recover` (cheap, no checksums read): delete temporaries of killed writers, apply
+  tombstone files, index ball files and sealed segments the index lacks, and finish the index
+  switch of a repair killed after it moved a damaged segment to ``quarantine/``.
+- :func:`reindex`: a new index from the data files alone (:func:`~.rebuild.rebuild_index`).
 - :func:`kill_copies`: tombstone (segment, run) pairs and drop them from the index; a run whose
   live copy dies but has a duplicate copy elsewhere is served from that copy.
 
@@ -13,267 +16,257 @@ Checksum verification, quarantine and compaction are in :mod:`.repair` and :mod:
 
 from __future__ import annotations
 
-import contextlib
-import os
+import logging
 import sqlite3
-import uuid
 from collections.abc import Iterable, Sequence
-from datetime import UTC, datetime
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any
 
-from bowlrec.archive.balls import ball_file_row
-from bowlrec.archive.quarantine import quarantine_reports
-from bowlrec.atomic_files import fsync_dir, remove_stale_parts
-from bowlrec.errors import SegmentError
+from bowlrec.atomic_files import remove_stale_parts
+from bowlrec.errors import IndexUnreadableError
 
-from .index import create_schema, forget_connections, new_index, transaction
-from .registry import INSERT_RUN, index_rows, register_segment
-from .segment_file import SegmentFile
-from .tombstones import Tombstone, read_tombstones, write_tombstone
+from . import faults
+from .directory import ArchiveDir
+from .index import transaction
+from .quarantine import quarantine_reports
+from .queries import resolve_id
+from .rebuild import (
+    apply_tombstone_files,
+    index_ball_files,
+    promote_copies,
+    rebuild_index,
+    record_damage,
+    record_tombstones,
+    register_segment_files,
+)
+from .tombstones import Tombstone, write_tombstone
 
-if TYPE_CHECKING:
-    from .store import Archive
+__all__ = [
+    "LOCKED_PART_AGE_S",
+    "RECOVERY_COUNTS",
+    "kill_copies",
+    "recover",
+    "reindex",
+    "remove",
+    "set_aside",
+    "switch_segment",
+    "writer_index",
+]
 
-__all__ = ["kill_copies", "memory_index", "rebuild_index", "recover"]
-
-
-def _now() -> str:
-    return datetime.now(UTC).isoformat(timespec="seconds")
-
-
-def _segment_files(archive: Archive) -> list[Path]:
-    """Sealed segment files, oldest first (segment IDs sort by creation time)."""
-    if not archive.segments_dir.is_dir():
-        return []
-    return sorted(archive.segments_dir.glob("*.h5"))
-
-
-def _apply_tombstone_files(archive: Archive, con: sqlite3.Connection) -> int:
-    """Record tombstone files the index has not seen; drop the copies they name. The count."""
-    seen = {r[0] for r in con.execute("SELECT name FROM tombstone_files")}
-    n = 0
-    for path, entries in read_tombstones(archive.tombstones_dir, skip=seen):
-        orphaned = _record_tombstones(con, entries)
-        promote_copies(archive, con, orphaned)
-        con.execute("INSERT OR IGNORE INTO tombstone_files (name) VALUES (?)", (path.name,))
-        n += 1
-    return n
-
-
-def _record_tombstones(con: sqlite3.Connection, entries: Iterable[Tombstone]) -> set[str]:
-    """Insert tombstones, drop the copies they name; the run IDs that lost their live copy."""
-    orphaned: set[str] = set()
-    for e in entries:
-        con.execute(
-            "INSERT OR REPLACE INTO tombstones (segment_id, run_id, reason) VALUES (?, ?, ?)",
-            (e.segment_id, e.run_id, e.reason),
-        )
-        cur = con.execute(
-            "DELETE FROM runs WHERE run_id = ? AND seg = "
-            "(SELECT seg FROM segments WHERE segment_id = ?)",
-            (e.run_id, e.segment_id),
-        )
-        if cur.rowcount:
-            orphaned.add(e.run_id)
-        con.execute(
-            "DELETE FROM shadowed WHERE run_id = ? AND segment_id = ?", (e.run_id, e.segment_id)
-        )
-        if e.reason.startswith("damaged"):
-            con.execute(
-                "INSERT OR REPLACE INTO damaged (segment_id, run_id, reason, detected_at) "
-                "VALUES (?, ?, ?, ?)",
-                (e.segment_id, e.run_id, e.reason, _now()),
-            )
-    return orphaned
-
-
-def promote_copies(archive: Archive, con: sqlite3.Connection, run_ids: Iterable[str]) -> int:
-    """Index a duplicate copy of each run ID that has no live copy (if one exists)."""
-    promoted = 0
-    for rid in run_ids:
-        if con.execute("SELECT 1 FROM runs WHERE run_id = ?", (rid,)).fetchall():
-            continue
-        copies = con.execute(
-            "SELECT sh.segment_id, sh.row, s.path, s.seg FROM shadowed sh "
-            "JOIN segments s ON s.segment_id = sh.segment_id WHERE sh.run_id = ? "
-            "ORDER BY sh.segment_id",
-            (rid,),
-        ).fetchall()
-        for segment_id, row, rel, key in copies:
-            try:
-                with SegmentFile(archive.root / rel) as seg:
-                    rows = index_rows(con, int(key), seg.index_columns())
-            except (SegmentError, OSError):
-                continue
-            con.execute(INSERT_RUN, rows[int(row)])
-            con.execute(
-                "DELETE FROM shadowed WHERE run_id = ? AND segment_id = ?", (rid, segment_id)
-            )
-            promoted += 1
-            break
-    return promoted
-
-
-def kill_copies(archive: Archive, con: sqlite3.Connection, entries: Sequence[Tombstone]) -> None:
-    """Tombstone copies of runs (a durable file first, then the index), holding the writer
-    lock; runs that lose their live copy fall back to a duplicate copy where one exists."""
-    path = write_tombstone(archive.tombstones_dir, entries)
-    if path is None:
-        return
-    with transaction(con, write=True):
-        orphaned = _record_tombstones(con, entries)
-        con.execute("INSERT OR IGNORE INTO tombstone_files (name) VALUES (?)", (path.name,))
-        promote_copies(archive, con, orphaned)
-
-
-def _ball_files(archive: Archive) -> list[Path]:
-    if not archive.balls_dir.is_dir():
-        return []
-    return sorted(archive.balls_dir.glob("*/*.json"))
-
-
-def _index_ball_files(archive: Archive, con: sqlite3.Connection, *, only_new: bool) -> int:
-
-    known = (
-        {(r[0], int(r[1])) for r in con.execute("SELECT name, version FROM balls")}
-        if only_new
-        else set()
-    )
-    n = 0
-    for path in _ball_files(archive):
-        if not path.stem.isdigit() or (path.parent.name, int(path.stem)) in known:
-            continue
-        try:
-            row = ball_file_row(path)
-        except (OSError, ValueError, KeyError, TypeError):
-            continue
-        con.execute(
-            "INSERT OR REPLACE INTO balls (name, version, sha, spec_json, added_at, note) "
-            "VALUES (?, ?, ?, ?, ?, ?)",
-            row,
-        )
-        n += 1
-    return n
-
-
-def _register_new_segments(
-    archive: Archive, con: sqlite3.Connection, *, only_new: bool
-) -> tuple[int, list[str]]:
-    """Register segment files the index lacks: (segments registered, unreadable files)."""
-    known = {r[0] for r in con.execute("SELECT segment_id FROM segments")} if only_new else set()
-    dead: dict[str, set[str]] = {}
-    for seg_id, rid in con.execute("SELECT segment_id, run_id FROM tombstones"):
-        dead.setdefault(seg_id, set()).add(rid)
-    n, unreadable = 0, []
-    for path in _segment_files(archive):
-        if path.stem in known:
-            continue
-        try:
-            register_segment(
-                con, path, str(path.relative_to(archive.root)), dead=dead.get(path.stem, ())
-            )
-            n += 1
-        except (SegmentError, OSError, KeyError, ValueError) as err:
-            unreadable.append(f"{path.name}: {err}")
-            con.execute(
-                "INSERT OR REPLACE INTO damaged (segment_id, run_id, reason, detected_at) "
-                "VALUES (?, '?', ?, ?)",
-                (path.stem, f"segment unreadable: {err}", _now()),
-            )
-    return n, unreadable
-
+log = logging.getLogger(__package__)  # "bowlrec.archive"
 
 #: seconds a locked-kind temporary must have existed before an unlocked one is deemed dead
 #: (its writer creates it, then locks it: microseconds apart)
 LOCKED_PART_AGE_S = 0.2
+#: what a recovery reports, each a count
+RECOVERY_COUNTS = (
+    "temporaries_removed",
+    "tombstone_files_applied",
+    "ball_files_indexed",
+    "segments_registered",
+    "segments_unreadable",
+    "repairs_finished",
+)
+_SAID = {
+    "temporaries_removed": "removed {} temporaries of interrupted writers",
+    "tombstone_files_applied": "applied {} tombstone file(s) the index lacked",
+    "ball_files_indexed": "indexed {} ball file(s) the index lacked",
+    "segments_registered": "registered {} sealed segment(s) the index lacked",
+    "segments_unreadable": "found {} unreadable segment(s) (run `bowlrec runs repair`)",
+    "repairs_finished": "finished {} interrupted repair(s)",
+}
 
 
-def recover(archive: Archive, con: sqlite3.Connection, *, min_age_s: float = 2.0) -> dict[str, int]:
-    """Finish what killed writers left (the caller holds the writer lock). Counts of each.
+def _open_writer(d: ArchiveDir) -> sqlite3.Connection:
+    """The index file for writing; a missing or damaged one is rebuilt first (logged)."""
+    try:
+        return d.index_writer()
+    except IndexUnreadableError as err:
+        counts = rebuild_index(d)
+        bad = counts["segments_unreadable"]
+        log.warning(
+            "%s; rebuilt from the data files (%d run(s) indexed%s)",
+            err,
+            counts["runs"],
+            f"; {bad} unreadable segment(s): run `bowlrec runs repair`" if bad else "",
+        )
+        return d.index_writer()
+
+
+def writer_index(d: ArchiveDir, *, sealed_here: Iterable[Path] = ()) -> sqlite3.Connection:
+    """The writing connection to the index (hold ``d.writer_lock()``). The first call of a
+    process recovers what killed writers left (:func:`recover`; ``sealed_here``: segments the
+    caller sealed and registers next, left to it): what it did is logged (a warning when it
+    found what only a kill or damage leaves, else at info level: a sealed segment may be
+    another live writer's) and kept for the next explicit recover(), repair() or reindex()."""
+    con = _open_writer(d)
+    if not d.recovered:
+        d.recovered = True
+        counts = _recover(d, con, min_age_s=2.0, skip={p.stem for p in sealed_here})
+        if any(counts.values()):
+            said = "; ".join(_SAID[k].format(v) for k, v in counts.items() if v)
+            killed = any(v for k, v in counts.items() if k != "segments_registered")
+            log.log(logging.WARNING if killed else logging.INFO, "%s: %s", d.root, said)
+            for k, v in counts.items():
+                d.unreported_recovery[k] = d.unreported_recovery.get(k, 0) + v
+    return con
+
+
+def _take_unreported(d: ArchiveDir, counts: dict[str, int]) -> dict[str, int]:
+    """``counts`` plus what the first write's recovery did and nobody reported yet."""
+    out = {k: counts.get(k, 0) + d.unreported_recovery.get(k, 0) for k in RECOVERY_COUNTS}
+    d.unreported_recovery = {}
+    return out
+
+
+def recover(d: ArchiveDir, *, min_age_s: float = 2.0) -> dict[str, int]:
+    """Finish what killed writers left (see the module doc); counts of each
+    (:data:`RECOVERY_COUNTS`), including what this process's first write recovered and no
+    earlier call reported.
 
     Segment temporaries are written under a lock, so an unlocked one is a killed writer's
     once it is older than the instant between its creation and its lock
     (:data:`LOCKED_PART_AGE_S`, or ``min_age_s`` if smaller: 0 when the caller knows no writer
     runs); other temporaries are removed once ``min_age_s`` old."""
+    with d.writer_lock():
+        con = _open_writer(d)
+        d.recovered = True
+        return _take_unreported(d, _recover(d, con, min_age_s=min_age_s))
+
+
+def _recover(
+    d: ArchiveDir,
+    con: sqlite3.Connection,
+    *,
+    min_age_s: float,
+    skip: frozenset[str] | set[str] = frozenset(),
+) -> dict[str, int]:
     removed = sum(
         remove_stale_parts(
-            d,
-            min_age_s=min(min_age_s, LOCKED_PART_AGE_S) if d == archive.segments_dir else min_age_s,
+            folder,
+            min_age_s=min(min_age_s, LOCKED_PART_AGE_S) if folder == d.segments_dir else min_age_s,
         )
-        for d in (archive.segments_dir, archive.balls_dir, archive.tombstones_dir)
-        if d.is_dir()
+        for folder in (d.segments_dir, d.balls_dir, d.tombstones_dir)
+        if folder.is_dir()
     )
     with transaction(con, write=True):
-        tombstones = _apply_tombstone_files(archive, con)
-        balls = _index_ball_files(archive, con, only_new=True)
-        segments, unreadable = _register_new_segments(archive, con, only_new=True)
+        tombstones = apply_tombstone_files(d, con)
+        balls = index_ball_files(d, con, only_new=True)
+        segments, unreadable = register_segment_files(d, con, only_new=True, skip=skip)
+        finished = _finish_quarantines(d, con)
     return {
         "temporaries_removed": removed,
         "tombstone_files_applied": tombstones,
         "ball_files_indexed": balls,
         "segments_registered": segments,
         "segments_unreadable": len(unreadable),
+        "repairs_finished": finished,
     }
 
 
-def _populate(archive: Archive, con: sqlite3.Connection) -> dict[str, int]:
+def _finish_quarantines(d: ArchiveDir, con: sqlite3.Connection) -> int:
+    """Switch the index away from segments a killed repair moved to ``quarantine/`` (inside
+    the caller's transaction): the count."""
+    indexed = {r[0] for r in con.execute("SELECT segment_id FROM segments")}
+    n = 0
+    for report in quarantine_reports(d.quarantine_dir):
+        segment_id = str(report.get("segment_id"))
+        if segment_id not in indexed or (d.segments_dir / f"{segment_id}.h5").exists():
+            continue
+        if not (d.quarantine_dir / f"{segment_id}.h5").exists():
+            continue
+        salvaged = report.get("salvaged_into")
+        path = None if not salvaged else d.segments_dir / f"{salvaged}.h5"
+        damaged = {item["run_id"]: item["reason"] for item in report.get("damaged", [])}
+        switch_segment(d, con, segment_id, damaged, path if path and path.exists() else None)
+        n += 1
+    return n
 
+
+def switch_segment(
+    d: ArchiveDir,
+    con: sqlite3.Connection,
+    segment_id: str,
+    damaged: dict[str, str],
+    salvaged: Path | None,
+) -> None:
+    """Inside the caller's write transaction: drop segment ``segment_id`` from the index,
+    index its salvaged runs (the sealed segment at ``salvaged``), list the damaged runs
+    (``damaged``: run ID -> reason) and serve every run that lost its live copy from a
+    duplicate copy where one exists."""
+    from .registry import register_segment
+
+    lost = {
+        r[0]
+        for r in con.execute(
+            "SELECT run_id FROM runs WHERE seg = (SELECT seg FROM segments WHERE segment_id = ?)",
+            (segment_id,),
+        )
+    }
+    con.execute(
+        "DELETE FROM runs WHERE seg = (SELECT seg FROM segments WHERE segment_id = ?)",
+        (segment_id,),
+    )
+    con.execute("DELETE FROM shadowed WHERE segment_id = ?", (segment_id,))
+    con.execute("DELETE FROM segments WHERE segment_id = ?", (segment_id,))
+    if salvaged is not None:
+        register_segment(con, salvaged, d.relative(salvaged))
+    for rid, why in damaged.items():
+        record_damage(con, segment_id, rid, why)
+    promote_copies(d, con, sorted(lost | set(damaged)))
+    con.execute("DELETE FROM damaged WHERE run_id IN (SELECT run_id FROM runs)")
+
+
+def reindex(d: ArchiveDir) -> dict[str, Any]:
+    """Rebuild the index from the data files (atomically replaced), after deleting the
+    temporaries of killed writers: counts of what was indexed (``runs``, ``segments``,
+    ``balls``, ``tombstone_files``), the unreadable segments (``unreadable_segments``, also
+    listed as damaged: ``runs repair`` sets them aside) and ``recovered``, the counts of
+    :func:`recover` this process has not reported yet."""
+    with d.writer_lock():
+        removed = sum(
+            remove_stale_parts(folder, min_age_s=2.0)
+            for folder in (d.segments_dir, d.balls_dir, d.tombstones_dir)
+            if folder.is_dir()
+        )
+        report = rebuild_index(d)
+        d.recovered = True  # a rebuilt index holds every data file: nothing left to recover
+        report["recovered"] = _take_unreported(d, {"temporaries_removed": removed})
+    return report
+
+
+def kill_copies(d: ArchiveDir, con: sqlite3.Connection, entries: Sequence[Tombstone]) -> None:
+    """Tombstone copies of runs (a durable file first, then the index), holding the writer
+    lock; runs that lose their live copy fall back to a duplicate copy where one exists."""
+    path = write_tombstone(d.tombstones_dir, entries)
+    if path is None:
+        return
+    faults.point("tombstone-written", path=path)
     with transaction(con, write=True):
-        balls = _index_ball_files(archive, con, only_new=False)
-        tombstones = _apply_tombstone_files(archive, con)
-        for report in quarantine_reports(archive):
-            for item in report.get("damaged", []):
-                con.execute(
-                    "INSERT OR REPLACE INTO damaged (segment_id, run_id, reason, detected_at) "
-                    "VALUES (?, ?, ?, ?)",
-                    (report["segment_id"], item["run_id"], item["reason"], report["at"]),
-                )
-        segments, unreadable = _register_new_segments(archive, con, only_new=False)
-        # a damaged copy whose run has a healthy copy elsewhere is no longer worth listing
-        con.execute("DELETE FROM damaged WHERE run_id IN (SELECT run_id FROM runs)")
-    return {
-        "balls": balls,
-        "tombstone_files": tombstones,
-        "segments": segments,
-        "segments_unreadable": len(unreadable),
-    }
+        orphaned = record_tombstones(con, entries)
+        con.execute("INSERT OR IGNORE INTO tombstone_files (name) VALUES (?)", (path.name,))
+        promote_copies(d, con, orphaned)
 
 
-def rebuild_index(archive: Archive) -> dict[str, int]:
-    """Write a new index from the data files and rename it over the old one (hold the writer
-    lock). Counts of what was indexed."""
-    for leftover in archive.root.glob(f"{archive.index_path.name}.rebuild-*"):
-        leftover.unlink(missing_ok=True)  # left by a rebuild that was killed (we hold the lock)
-    tmp = archive.index_path.with_name(f"{archive.index_path.name}.rebuild-{uuid.uuid4().hex[:8]}")
-    con = new_index(tmp)
-    try:
-        con.execute("PRAGMA synchronous=OFF")  # a new file: made durable by the fsync below
-        counts = _populate(archive, con)
-        con.close()
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        forget_connections(archive.index_path)
-        for stale in ("-journal", "-wal", "-shm"):  # belong to the file being replaced
-            with contextlib.suppress(FileNotFoundError):
-                archive.index_path.with_name(archive.index_path.name + stale).unlink()
-        os.replace(tmp, archive.index_path)
-        fsync_dir(archive.root)
-    except BaseException:
-        con.close()
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        raise
-    return counts
+def set_aside(d: ArchiveDir, run_id: str, segment_id: str, reason: str) -> None:
+    """Tombstone one copy of a run (``reason`` "removed" or "damaged: ...") and drop it from
+    the index; a damaged copy is listed as damaged."""
+    with d.writer_lock():
+        kill_copies(d, writer_index(d), [Tombstone(segment_id, run_id, reason)])
 
 
-def memory_index(archive: Archive) -> sqlite3.Connection:
-    """An index built in memory from the data files (for readers who may not write)."""
-    con = sqlite3.connect(":memory:", isolation_level=None, check_same_thread=False)
-    con.row_factory = sqlite3.Row
-    create_schema(con)
-    _populate(archive, con)
-    return con
+def remove(d: ArchiveDir, run_id: str) -> str:
+    """Tombstone every stored copy of a run (an ID or a unique prefix); its full ID."""
+    rid = resolve_id(d, run_id)
+    with d.writer_lock():
+        con = writer_index(d)
+        copies = [
+            r[0]
+            for r in con.execute(
+                "SELECT s.segment_id FROM runs r JOIN segments s ON s.seg = r.seg "
+                "WHERE r.run_id = ? UNION SELECT segment_id FROM shadowed WHERE run_id = ?",
+                (rid, rid),
+            )
+        ]
+        kill_copies(d, con, [Tombstone(seg, rid, "removed") for seg in copies])
+    return rid

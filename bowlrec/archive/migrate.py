@@ -21,10 +21,13 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-from bowlrec.archive.balls import BALL_FILE_FORMAT, ball_sha
-from bowlrec.archive.store import ARCHIVE_FORMAT, ARCHIVE_FORMAT_VERSION, Archive, pattern_label
 from bowlrec.atomic_files import atomic_path
 from bowlrec.errors import MigrationError, RunFileError
+
+from .ball_files import BALL_FILE_FORMAT, ball_sha
+from .directory import ARCHIVE_FORMAT, ARCHIVE_FORMAT_VERSION
+from .store import Archive
+from .writing import pattern_label
 
 __all__ = ["V1_BACKUP", "MigrationError", "migrate"]
 

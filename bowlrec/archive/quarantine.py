@@ -1,29 +1,30 @@
 """The reports that ``runs repair`` leaves next to a quarantined segment, and how to read them.
 
 A report is a JSON document in the archive's ``quarantine/`` folder with ``format`` =
-:data:`QUARANTINE_FORMAT`, naming the segment and each damaged run; repair writes them,
-maintenance (rebuilding the index) and compaction read them.
+:data:`QUARANTINE_FORMAT`, naming the segment and each damaged run (run ID ``"?"`` when the
+segment could not be read at all and its runs were not indexed); repair writes them, rebuilding
+the index, recovery and compaction read them.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Iterator
-from typing import TYPE_CHECKING, Any
+from pathlib import Path
+from typing import Any
 
-if TYPE_CHECKING:
-    from .store import Archive
-
-__all__ = ["QUARANTINE_FORMAT", "quarantine_reports"]
+__all__ = ["QUARANTINE_FORMAT", "UNKNOWN_RUN", "quarantine_reports"]
 
 QUARANTINE_FORMAT = "bowlrec-quarantine"
+#: the run ID a damage record carries when the segment's runs are not known
+UNKNOWN_RUN = "?"
 
 
-def quarantine_reports(archive: Archive) -> Iterator[dict[str, Any]]:
-    """The reports of quarantined segments (oldest first)."""
-    if not archive.quarantine_dir.is_dir():
+def quarantine_reports(directory: Path) -> Iterator[dict[str, Any]]:
+    """The reports in ``directory`` (an archive's ``quarantine/``), oldest first."""
+    if not directory.is_dir():
         return
-    for path in sorted(archive.quarantine_dir.glob("*.json")):
+    for path in sorted(directory.glob("*.json")):
         try:
             doc = json.loads(path.read_text())
         except (OSError, ValueError):

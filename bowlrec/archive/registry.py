@@ -14,8 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from .index import RUN_TABLE_COLUMNS
-from .segment import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS, SegmentInfo
 from .segment_file import SegmentFile
+from .segment_format import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS, SegmentInfo
 
 __all__ = [
     "INSERT_RUN",

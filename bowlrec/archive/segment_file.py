@@ -24,9 +24,11 @@ from numpy.typing import NDArray
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunDamagedError, SegmentError
+from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
-from .segment import (
+from . import faults
+from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
     RUN_FLOAT_COLUMNS,
@@ -131,6 +133,7 @@ def write_segment(
                     meanings[f"{group_name}/{name}"] = meaning
         f["torques"].attrs["order"] = terms
         f.attrs["meanings_json"] = json.dumps(meanings, sort_keys=True)
+        faults.point("segment-written", path=tmp)
 
 
 #: datasets of at most this many bytes are stored contiguous and uncompressed (a chunk index
@@ -143,7 +146,6 @@ _SMALL_BYTES = 4096
 _CHUNK_BYTES = {"runs": 1 << 20, "summary": 1 << 20, "events": 1 << 20}
 _SLICED_CHUNK_BYTES = 1 << 15
 _SLICED = {"scene_json", "message"}
-_GZIP_LEVEL = 4
 #: per-sample storage filters (write_segment's ``samples``)
 SAMPLE_FILTERS = ("gzip", "none")
 _SAMPLE_GROUPS = {"trajectory", "torques"}
@@ -161,12 +163,7 @@ def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -
     rows = max(1, min(data.shape[0], target // row_bytes))
     if samples == "none" and group in _SAMPLE_GROUPS:
         return {"chunks": (rows, *data.shape[1:])}
-    return {
-        "chunks": (rows, *data.shape[1:]),
-        "compression": "gzip",
-        "compression_opts": _GZIP_LEVEL,
-        "shuffle": True,
-    }
+    return {"chunks": (rows, *data.shape[1:]), **GZIP_FILTERS}
 
 
 @dataclass(frozen=True)

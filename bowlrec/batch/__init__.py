@@ -18,20 +18,10 @@ Imports neither numba nor dask until something is run.
 from bowlrec.errors import JobError
 
 from .chunks import FAILED_OUTCOMES, METRIC_COLUMNS, ChunkTable
-from .job import (
-    JOB_FORMAT,
-    JobSpec,
-    Point,
-    PreparedRun,
-    apply_override,
-    job_context,
-    job_schema_text,
-    latin_hypercube,
-    load_job,
-    parse_path,
-    prepare_runs,
-)
+from .job import PreparedRun, job_context, prepare_runs
+from .job_spec import JOB_FORMAT, JobSpec, Point, job_schema_text, latin_hypercube, load_job
 from .many import simulate_many
+from .paths import apply_override, parse_path
 from .runner import BatchProgress, InlineExecutor, run_job
 from .table import (
     BatchResult,

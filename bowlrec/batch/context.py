@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .job import JobSpec
+    from .job_spec import JobSpec
 
 __all__ = ["JobContext", "WriteTarget"]
 

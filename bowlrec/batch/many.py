@@ -10,15 +10,12 @@ from typing import TYPE_CHECKING, Any, Literal
 from pydantic import BaseModel
 
 from bowlrec.archive import Archive
-from bowlrec.batch.job import JobSpec, load_job
+from bowlrec.batch.job_spec import JobSpec, load_job
 from bowlrec.batch.runner import run_job
 from bowlrec.batch.table import to_arrow, to_numpy
 from bowlrec.errors import MissingExtraError
 
 if TYPE_CHECKING:
-    from bowlrec.archive import Archive
-
-    from .job import JobSpec
     from .runner import ProgressCallback
 
 __all__ = ["simulate_many"]

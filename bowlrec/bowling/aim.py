@@ -13,7 +13,7 @@ speed      the release speed                           8 - 30 mph
 
 One free variable is solved for the entry board (``Pocket.board`` at the head pin line), two for
 the entry board and the entry angle (``Pocket.angle_deg``). With ``target`` free the launch angle
-follows from it (:class:`~bowlrec.bowling.shot.Shot`); with ``launch`` free the scene aims by
+follows from it (:class:`~bowlrec.bowling.scene.Shot`); with ``launch`` free the scene aims by
 its launch angle. Every evaluation is one summary-only kernel run (a few with a target at the
 arrows), the arrows and the turning point observed on the way.
 
@@ -44,8 +44,7 @@ from bowlrec.spec import Lane
 from .delivery import BowlerDelivery
 from .pocket import POCKET, Pocket
 from .report import BowlerReport, bowler_report, report_stations
-from .scene import BowlerScene
-from .shot import Shot
+from .scene import BowlerScene, Shot
 
 __all__ = ["VARIABLES", "AimResult", "ShotResult", "Variable", "aim", "evaluate"]
 

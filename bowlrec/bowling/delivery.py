@@ -15,7 +15,7 @@ Conventions (lane frame: x toward the pins, y from the RIGHT gutter toward the l
 * **Target at the arrows** ``target_board_at_arrows``: the (fractional) board the center
   crosses 15 ft past the foul line. The ball curves on its way there, so a bowler scene solves
   the launch angle for which the simulated path crosses the target
-  (:class:`~bowlrec.bowling.shot.Shot`); the straight line from the laydown point,
+  (:class:`~bowlrec.bowling.scene.Shot`); the straight line from the laydown point,
   ``tan(launch) = (target - laydown) * board_width / (15 ft - laydown_ft)``, is the sighting
   line the solver starts from (:meth:`BowlerDelivery.launch_angle_on`).
 * **Laydown** ``laydown_board`` (bowler's own count, see :mod:`bowlrec.bowling.lane`) and

@@ -155,6 +155,15 @@ class LegalityReport:
         """The names of the violated rules."""
         return tuple(v.rule for v in self.violations)
 
+    def error(self) -> IllegalBallError:
+        """The error an illegal ball raises where it was not explicitly allowed: the ball, the
+        rule set and one ``"rule value unit (limit L unit)"`` line per violation."""
+        lines = [
+            f"{v.rule} {v.value:.6g} {v.unit} (limit {v.limit:.6g} {v.unit})"
+            for v in self.violations
+        ]
+        return IllegalBallError(self.ball_name, self.rule_set, lines)
+
     def __str__(self) -> str:
         head = f"ball {self.ball_name!r} under rule set '{self.rule_set}'"
         if self.is_legal:
@@ -283,5 +292,5 @@ def ensure_legal(
         balance_hole_diameters_in=balance_hole_diameters_in,
     )
     if not report.is_legal and not allow_illegal:
-        raise IllegalBallError(report)
+        raise report.error()
     return report

@@ -2,7 +2,7 @@
 
 Each repeat draws the speed, rev rate, axis rotation, axis tilt, launch angle and laydown board
 from independent normal distributions around the scene's shot (the launch angle around the one
-that crosses the scene's target at the arrows: :class:`~bowlrec.bowling.shot.Shot`), and all
+that crosses the scene's target at the arrows: :class:`~bowlrec.bowling.scene.Shot`), and all
 repeats run at once in the many-delivery kernel (:func:`bowlrec.core.batch.run_batch`, summary
 only). Reported: the distribution of entry board and entry angle at the head pin line, the share
 of repeats that reach the pins and the share inside the pocket window
@@ -36,12 +36,11 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from bowlrec.spec._base import NonNegativeFloat, SpecModel, fmt
+from bowlrec.spec._base import NonNegativeFloat, SpecModel
 
 from .delivery import BowlerDelivery
 from .pocket import POCKET, Pocket
-from .scene import BowlerScene
-from .shot import Shot
+from .scene import BowlerScene, Shot
 
 __all__ = [
     "draw_releases",
@@ -50,8 +49,6 @@ __all__ = [
     "ScatterResult",
     "ToleranceMap",
     "release_scatter",
-    "scatter_figure",
-    "tolerance_figure",
     "tolerance_map",
 ]
 
@@ -227,44 +224,6 @@ def _entries(
     return outcomes, entry_board, entry_angle
 
 
-def scatter_figure(result: ScatterResult, path: str, title: str = "") -> None:
-    """Entry angle against entry board of every repeat, the pocket window drawn, with the
-    shares in the title; written to ``path`` (.png or .svg)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
-
-    p = result.pocket
-    fig, ax = plt.subplots(figsize=(7.0, 4.5), dpi=120)
-    ok = result.in_pocket
-    b, a = result.entry_board, result.entry_angle_deg
-    ax.scatter(b[~ok], a[~ok], s=4, alpha=0.5, color="tab:gray", label="outside the pocket")
-    ax.scatter(b[ok], a[ok], s=4, alpha=0.6, color="tab:green", label="in the pocket window")
-    ax.add_patch(
-        Rectangle(
-            (p.board_min, p.angle_min_deg), p.board_max - p.board_min,
-            p.angle_max_deg - p.angle_min_deg, fill=False, edgecolor="tab:green", lw=1.5,
-        )
-    )  # fmt: skip
-    ax.set_xlabel("entry board at the head pin line (bowler's count)")
-    ax.set_ylabel("entry angle (deg)")
-    ax.invert_xaxis()
-    ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
-    head = f"{title}: " if title else ""
-    ax.set_title(
-        f"{head}{100 * result.pocket_share:.1f} % in the pocket "
-        f"(± {100 * result.pocket_share_se:.1f}), {100 * result.pins_share:.1f} % reach the "
-        f"pins, n = {result.n}",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-
-
 @dataclass(frozen=True)
 class ToleranceMap:
     """Entry board and angle over a grid of target board at the arrows (columns) x release
@@ -393,48 +352,3 @@ def tolerance_map(
         scene_speed_mph=float(d.speed_mph),
         seconds=time.perf_counter() - t0,
     )
-
-
-def tolerance_figure(tmap: ToleranceMap, path: str, title: str = "") -> None:
-    """The entry board over target x speed with the pocket window's board limits (solid) and
-    angle limits (dashed) as contours and the scene's shot marked; written to ``path``."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7.0, 4.5), dpi=120)
-    mesh = ax.pcolormesh(
-        tmap.targets, tmap.speeds_mph, tmap.entry_board, cmap="coolwarm", shading="nearest",
-        vmin=tmap.pocket.board - 8.0, vmax=tmap.pocket.board + 8.0,
-    )  # fmt: skip
-    fig.colorbar(mesh, ax=ax, label="entry board")
-    p = tmap.pocket
-    board = np.ma.masked_invalid(tmap.entry_board)
-    angle = np.ma.masked_invalid(tmap.entry_angle_deg)
-    if board.count() > 3:
-        ax.contour(tmap.targets, tmap.speeds_mph, board, levels=[p.board_min, p.board_max],
-                   colors="black", linewidths=1.2)  # fmt: skip
-    if angle.count() > 3:
-        cs = ax.contour(tmap.targets, tmap.speeds_mph, angle,
-                        levels=[p.angle_min_deg, p.angle_max_deg], colors="dimgray",
-                        linestyles="dashed", linewidths=1.0)  # fmt: skip
-        ax.clabel(cs, fmt="%g deg", fontsize=7)
-    ax.plot([tmap.scene_target], [tmap.scene_speed_mph], "k*", ms=12, label="the scene's shot")
-    ax.set_xlabel("target board at the arrows")
-    ax.set_ylabel("release speed (mph)")
-    ax.invert_xaxis()
-    ax.legend(loc="upper right", fontsize=8)
-    d = tmap.to_dict()
-    tr, sr = d["target_range_at_scene_speed"], d["speed_range_at_scene_target"]
-    span = f"target {tr[0]:.2f}-{tr[1]:.2f}" if tr else "no target"
-    speed = f"{sr[0]:.2f}-{sr[1]:.2f} mph" if sr else "no speed"
-    head = f"{title}: " if title else ""
-    ax.set_title(
-        f"{head}entry boards {fmt(p.board_min)}-{fmt(p.board_max)} between the solid lines, "
-        f"entry angle dashed\nin the window: {span} at its speed, {speed} at its target",
-        fontsize=9,
-    )
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)

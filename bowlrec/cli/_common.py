@@ -102,17 +102,16 @@ def exit_for(err: BaseException) -> None:
 
 
 def load_scene_or_exit(path: Path) -> Any:
-    """The file's physical scene (a bowler scene converted); exits when invalid."""
+    """The file's physical scene (a bowler scene converted): :func:`parse_scene_or_exit`."""
     return parse_scene_or_exit(path).scene
 
 
 def parse_scene_or_exit(path: Path) -> Any:
-    """The file's scene parsed by :func:`bowlrec.scene_input.parse_scene_file` (library
-    references are resolved by the caller); exits when the file is missing, and raises
-    :class:`~bowlrec.errors.SceneInputError` with the field-named message when it is invalid."""
-
-    if not path.exists():
-        fail(f"{path}: no such file")
+    """The file's scene through the one way in for a scene,
+    :func:`bowlrec.scene_input.parse_scene_file` (library references are resolved by the
+    caller). Raises :class:`~bowlrec.errors.SceneInputError`, every line starting with the
+    path, when the file is missing, unreadable or invalid; the application prints it as one
+    ``error:`` line per problem and exits 2."""
     return parse_scene_file(path)
 
 

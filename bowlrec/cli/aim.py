@@ -170,7 +170,7 @@ def variance(
 ) -> None:
     """Repeat a shot with a bowler's release scatter and report how often it enters the
     pocket (entry board and angle distributions, share in the window)."""
-    from bowlrec.bowling.variance import PRESETS, release_scatter, scatter_figure
+    from bowlrec.bowling.variance import PRESETS, release_scatter
 
     if preset not in PRESETS:
         fail(f"--preset {preset!r}: choose one of {', '.join(PRESETS)}")
@@ -182,7 +182,9 @@ def variance(
         f"{n} repeats", quiet, lambda: release_scatter(bowler, PRESETS[preset], n, seed, pocket)
     )
     if plot is not None:
-        scatter_figure(result, str(plot), title=f"{bowler.name}, {preset}")
+        from bowlrec.figures.variance import write_scatter_figure
+
+        write_scatter_figure(result, plot, title=f"{bowler.name}, {preset}")
     doc = {"preset": preset, **result.to_dict()}
     if as_json:
         typer.echo(json.dumps(doc))
@@ -221,7 +223,7 @@ def tolerance(
 ) -> None:
     """Map the entry board over target board at the arrows x speed around the scene's shot:
     how far the bowler can miss the target or the speed and still enter the pocket window."""
-    from bowlrec.bowling.variance import tolerance_figure, tolerance_map
+    from bowlrec.bowling.variance import tolerance_map
 
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         fail(f"--plot {plot}: give a .png or .svg path")
@@ -229,7 +231,9 @@ def tolerance(
     bowler = bowler_scene_or_exit(scene)
     tmap = with_status("mapping", quiet, lambda: tolerance_map(bowler, pocket=pocket))
     if plot is not None:
-        tolerance_figure(tmap, str(plot), title=bowler.name)
+        from bowlrec.figures.variance import write_tolerance_figure
+
+        write_tolerance_figure(tmap, plot, title=bowler.name)
     doc = tmap.to_dict()
     if as_json:
         typer.echo(json.dumps(doc))

@@ -9,7 +9,6 @@ from typing import Annotated, Any
 
 import typer
 
-from bowlrec.api import simulate_into
 from bowlrec.errors import MissingExtraError
 from bowlrec.sinks.registry import sink_named
 
@@ -123,6 +122,8 @@ def _written(name: str, runs: list[Any], path: Path) -> str:
 
 
 def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:
+    from bowlrec.api import simulate_into
+
     def work(advance: Any) -> list[Any]:
         results = []
         for scene in scenes:

@@ -242,12 +242,45 @@ def remove(
 
 
 @runs_app.command("reindex")
-def reindex(archive: ArchiveOption = None) -> None:
+def reindex(archive: ArchiveOption = None, as_json: JsonOption = False) -> None:
     """Rebuild the index from the data files (segments, ball files, tombstones); readers see
-    the old index until the new one replaces it whole."""
+    the old index until the new one replaces it whole.
+
+    A segment that cannot be read is named (its runs cannot be indexed); `runs repair` sets it
+    aside. Exit code 1 when one was found.
+    """
     store = _open(archive, create=False)
     with archive_errors():
-        typer.echo(f"{store.reindex()} run(s) indexed in {store.root}")
+        report = store.rebuild_index()
+    unreadable = report["unreadable_segments"]
+    if as_json:
+        typer.echo(json.dumps(report, indent=2))
+    else:
+        typer.echo(f"{report['runs']} run(s) indexed in {store.root}")
+        _recovered_lines(report["recovered"])
+        for item in unreadable:
+            typer.echo(f"unreadable: segment {item['segment_id']}: {item['reason']}")
+        if unreadable:
+            typer.echo(
+                f"{len(unreadable)} segment(s) could not be read and their runs are not "
+                "indexed: run `bowlrec runs repair` to set them aside (quarantine)"
+            )
+    if unreadable:
+        raise typer.Exit(1)
+
+
+def _recovered_lines(counts: dict[str, int], *, skip: tuple[str, ...] = ()) -> None:
+    """What recovery did (but the ``skip`` counts, reported otherwise), one line each."""
+    said = {
+        "temporaries_removed": "temporaries of interrupted writers removed",
+        "segments_registered": "sealed segment(s) the index lacked registered",
+        "tombstone_files_applied": "tombstone file(s) the index lacked applied",
+        "ball_files_indexed": "ball file(s) the index lacked indexed",
+        "repairs_finished": "interrupted repair(s) finished",
+    }
+    for key, text in said.items():
+        if key not in skip and counts.get(key):
+            typer.echo(f"recovered: {counts[key]} {text}")
 
 
 @runs_app.command("repair")
@@ -255,27 +288,36 @@ def repair(archive: ArchiveOption = None, as_json: JsonOption = False) -> None:
     """Check every stored run against its checksum and the index against the segments.
 
     Damaged segments move to ARCHIVE/quarantine/ (their healthy runs are rewritten to a new
-    segment); damaged runs are named here and by `runs list --damaged`. Also finishes what
-    killed writers left. Exit code 1 when damage was found.
+    segment), and so do segments that cannot be read at all; damaged runs are named here and by
+    `runs list --damaged`. Also finishes what killed writers left (and says what). Exit code 1
+    when damage was found.
     """
     store = _open(archive, create=False)
     with archive_errors():
         report = store.repair()
+    damaged, unreadable = report["damaged_runs"], report["unreadable_segments"]
     if as_json:
         typer.echo(json.dumps(report, indent=2))
     else:
         typer.echo(
             f"checked {report['runs_checked']} run(s) in {report['segments_checked']} "
-            f"segment(s) in {report['seconds']:.1f} s; {len(report['damaged_runs'])} damaged, "
+            f"segment(s) in {report['seconds']:.1f} s; {len(damaged)} damaged, "
             f"{len(report['quarantined_segments'])} segment(s) quarantined; "
             f"{report['segments_registered']} unregistered segment(s) indexed, "
             f"{report['temporaries_removed']} temporaries removed"
         )
-        for item in report["damaged_runs"]:
+        _recovered_lines(report, skip=("temporaries_removed", "segments_registered"))
+        if report["ball_rows_fixed"]:
+            typer.echo(f"{report['ball_rows_fixed']} ball row(s) of the index rebuilt")
+        for item in damaged:
             typer.echo(
                 f"damaged: {item['run_id']} (segment {item['segment_id']}): {item['reason']}"
             )
-    if report["damaged_runs"]:
+        for item in unreadable:
+            typer.echo(
+                f"quarantined: segment {item['segment_id']} (cannot be read): {item['reason']}"
+            )
+    if damaged or unreadable:
         raise typer.Exit(1)
 
 
@@ -405,8 +447,9 @@ def plot(
 ) -> None:
     """Paper-style figure of one or several runs overlaid (lane, oil, paths, rotation axes)."""
 
-    plots = sink_named("plot")
-    plot_runs, plot_series = plots.attribute("plot_runs"), plots.attribute("plot_series")
+    plot_runs = sink_named("plot").attribute("plot_runs")  # MissingExtraError without matplotlib
+    from bowlrec.figures.series import plot_series
+
     data = []
     with archive_errors():
         for item in runs:

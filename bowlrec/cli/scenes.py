@@ -9,7 +9,6 @@ from typing import Annotated, Any
 
 import typer
 
-from bowlrec.api import simulate_into
 from bowlrec.core.codes import RECORD_SUMMARY
 from bowlrec.errors import SceneInputError
 from bowlrec.scene_input import ParsedScene, parse_scene
@@ -88,6 +87,8 @@ def simulate(
             )
     with archive_errors():
         if store is not None:
+            from bowlrec.api import simulate_into
+
             result = with_status(
                 "simulating (first run compiles kernels)",
                 quiet,
@@ -265,7 +266,7 @@ def schema(
 ) -> None:
     """Print the JSON Schema of a scene, bowler scene or batch job (for editors and
     validators), or write the schema files into a directory."""
-    from bowlrec.spec.schema_export import SCHEMAS, export_schemas
+    from .schemas import SCHEMAS, export_schemas
 
     if name is not None and name not in SCHEMAS:
         fail(f"schema {name!r}: there is no such schema; the schemas are {', '.join(SCHEMAS)}")

@@ -196,7 +196,8 @@ def _run(spec: Any, store: Any, max_shots: int | None, quiet: bool) -> SessionRe
 def write_outputs(result: SessionResult, out_dir: Path) -> list[Path]:
     """The shots table (CSV) and the figures (SVG and PNG) of a session, written atomically."""
     from bowlrec.atomic_files import atomic_path
-    from bowlrec.session.figures import drift_figure, figure_bytes, oil_before_after_figure
+    from bowlrec.figures.render import figure_bytes
+    from bowlrec.figures.session import drift_figure, oil_before_after_figure
 
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / "shots.csv"]

@@ -108,7 +108,7 @@ from .slots import RecordingSlots
 
 __all__ = ["create_app"]
 
-log = logging.getLogger("bowlrec.service")
+log = logging.getLogger(__name__)
 
 #: file kinds of ``GET /runs/{id}/files/{kind}``: sinks of :mod:`bowlrec.sinks.registry` by
 #: name, each with its media type
@@ -142,8 +142,15 @@ _ERRORS: dict[int | str, dict[str, Any]] = {
 }
 
 
+def status_for(err: BowlrecError) -> int:
+    """The HTTP status of ``err``'s category (:data:`STATUS_CODES`; 500 for none)."""
+    return next((code for kind, code in STATUS_CODES.items() if isinstance(err, kind)), 500)
+
+
 class _State:
-    """What the endpoints share: the archive, the jobs and per-file generation locks."""
+    """What the endpoints and the pages share: the archive, the jobs, per-file generation locks,
+    the sign-in check and the status of an error (the pages' :class:`bowlrec.web.pages.Host`).
+    """
 
     def __init__(
         self,
@@ -176,6 +183,20 @@ class _State:
         with self._mutex:
             return self._file_locks.setdefault(path, threading.Lock())
 
+    def signed_in(self, request: Request) -> bool:
+        """The one sign-in check of the API's routes and the pages: True on a server without a
+        token, for the bearer token, or for the cookie of an open session."""
+        if self.token is None:
+            return True
+        if bearer_matches(request.headers.get("authorization"), self.token):
+            return True
+        return self.sessions.valid(request.cookies.get(COOKIE_NAME))
+
+    @staticmethod
+    def status_for(err: BowlrecError) -> int:
+        """The HTTP status of ``err`` (:func:`status_for`)."""
+        return status_for(err)
+
 
 def _state(request: Request) -> _State:
     state: _State = request.app.state.bowlrec
@@ -189,13 +210,9 @@ def _check_token(
     request: Request,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> None:
-    """The bearer token or a valid session cookie (``POST /session``); 401 otherwise."""
-    state = _state(request)
-    if state.token is None:
-        return
-    if bearer_matches(request.headers.get("authorization"), state.token):
-        return
-    if state.sessions.valid(request.cookies.get(COOKIE_NAME)):
+    """The bearer token or a valid session cookie (``POST /session``): 401 unless
+    :meth:`_State.signed_in`."""
+    if _state(request).signed_in(request):
         return
     raise HTTPException(
         401,
@@ -206,11 +223,6 @@ def _check_token(
 
 
 StateDep = Annotated[_State, Depends(_state)]
-
-
-def status_for(err: BowlrecError) -> int:
-    """The HTTP status of ``err``'s category (:data:`STATUS_CODES`; 500 for none)."""
-    return next((code for kind, code in STATUS_CODES.items() if isinstance(err, kind)), 500)
 
 
 # -- runs ----------------------------------------------------------------------------------------
@@ -492,9 +504,11 @@ def open_session(
     return SessionInfo(auth=True, expires_at=when)
 
 
-@sessions.delete("", response_model=SessionClosed)
+@sessions.delete("", response_model=SessionClosed, dependencies=[Depends(_check_token)])
 def close_session(state: StateDep, request: Request, response: Response) -> SessionClosed:
-    """Close the session of the request's cookie (if any) and clear the cookie."""
+    """Close the session of the request's cookie and clear the cookie. On a server with a
+    token the request needs the session's cookie (valid) or the bearer token (401
+    otherwise)."""
     closed = state.sessions.close(request.cookies.get(COOKIE_NAME))
     response.delete_cookie(
         COOKIE_NAME, path="/", secure=_secure(request), httponly=True, samesite="strict"
@@ -640,12 +654,12 @@ def create_app(
     """The service for the archive at ``archive_dir`` (created if missing).
 
     Raises :class:`~bowlrec.service.jobs.JobsLockedError` when another live server uses the
-    archive. ``token``: when given, every request except ``/health``, the docs and ``POST
-    /session`` needs ``Authorization: Bearer <token>`` or the cookie of a session opened with
-    ``POST /session`` (401 otherwise). ``warm_up`` loads the kernels at start-up so the first
-    submission is not slower than the rest. Jobs simulate in the server process
-    (``job_workers`` 0), a local pool of ``job_workers`` processes, or on the dask.distributed
-    cluster at ``scheduler``.
+    archive. ``token``: when given, every request except ``/health``, the docs, the static
+    and viewer files and ``POST /session`` needs ``Authorization: Bearer <token>`` or the
+    cookie of a session opened with ``POST /session`` (401 otherwise). ``warm_up`` loads the
+    kernels at start-up so the first submission is not slower than the rest. Jobs simulate in
+    the server process (``job_workers`` 0), a local pool of ``job_workers`` processes, or on
+    the dask.distributed cluster at ``scheduler``.
 
     ``max_body_bytes``: request bodies longer than this get 413 (None: no limit; default 32
     MiB). ``allowed_hosts``: ``Host`` names accepted besides the loopback ones (requests

@@ -48,10 +48,8 @@ from bowlrec.bowling.oil_transfer import (
     session_oil_grid,
 )
 from bowlrec.bowling.report import bowler_report
-from bowlrec.bowling.scene import BowlerScene
-from bowlrec.bowling.shot import Shot
+from bowlrec.bowling.scene import BowlerScene, Shot
 from bowlrec.bowling.variance import ReleaseScatter, draw_releases
-from bowlrec.errors import IllegalBallError
 from bowlrec.sinks.common import RunData
 from bowlrec.versions import PHYSICS_VERSION
 
@@ -196,7 +194,7 @@ class _Session:
         drilled = scene.drilled()
         report = scene.legality(drilled)
         if not report.is_legal and not scene.allow_illegal:
-            raise IllegalBallError(report)
+            raise report.error()
         lane = self.lane_for(scene)
         if b.aim:
             found = aim(scene, ("target",), self.spec.pocket, lane=lane)

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 from pydantic import Field, ValidationError, field_validator, model_validator
 
@@ -39,7 +40,8 @@ from bowlrec.bowling.oil_transfer import TransferModel
 from bowlrec.bowling.pocket import POCKET, Pocket
 from bowlrec.bowling.scene import BowlerScene
 from bowlrec.bowling.variance import PRESETS, ReleaseScatter
-from bowlrec.errors import InputError, SceneInputError
+from bowlrec.errors import SceneInputError, SpecFileError
+from bowlrec.scene_input import check_scene_input, prefix_lines
 from bowlrec.spec import format_validation_error
 from bowlrec.spec._base import PositiveFloat, SpecModel, spec_error
 from bowlrec.spec.loading import read_mapping
@@ -63,6 +65,8 @@ MAX_BOWLERS = 12
 MAX_GAMES = 60
 #: sessions one file's sweep may expand to
 MAX_SESSIONS = 1000
+
+_T = TypeVar("_T")
 
 
 class OilGridSpec(SpecModel):
@@ -179,24 +183,28 @@ class SessionSpec(SpecModel):
         return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
-def _inline_scenes(data: dict[str, Any], base_dir: Path) -> dict[str, Any]:
-    """``data`` with every bowler's scene path replaced by the file's mapping."""
-    out = dict(data)
-    bowlers = out.get("bowlers")
+def _bowler_scenes(data: dict[str, Any], base_dir: Path) -> dict[str, Any]:
+    """``data`` with every bowler's scene (a path relative to ``base_dir``, or inline) read and
+    validated as a bowler scene through the one way in for a scene
+    (:func:`bowlrec.scene_input.check_scene_input`); SceneInputError with the intake's lines,
+    each prefixed ``bowlers[i].scene:`` (and the file's path for a file), for every bad one."""
+    bowlers = data.get("bowlers")
     if not isinstance(bowlers, list):
-        return out
-    resolved = []
+        return data
+    resolved: list[Any] = []
+    problems: list[str] = []
     for i, b in enumerate(bowlers):
-        if isinstance(b, dict) and isinstance(b.get("scene"), str):
-            path = base_dir / b["scene"]
+        entry = b.get("scene") if isinstance(b, dict) else None
+        if isinstance(entry, str | dict):
             try:
-                scene = read_mapping(path)
-            except (OSError, InputError) as err:
-                raise SceneInputError(f"bowlers[{i}].scene: {path}: {err}") from None
-            b = {**b, "scene": scene}
+                entry = check_scene_input(entry, base_dir=base_dir, bowler=True).model
+            except SceneInputError as err:
+                problems.append(prefix_lines(f"bowlers[{i}].scene", str(err)))
+            b = {**b, "scene": entry}
         resolved.append(b)
-    out["bowlers"] = resolved
-    return out
+    if problems:
+        raise SceneInputError("\n".join(problems))
+    return {**data, "bowlers": resolved}
 
 
 def expand_sessions(data: object, base_dir: str | Path = ".") -> list[SessionSpec]:
@@ -209,7 +217,7 @@ def expand_sessions(data: object, base_dir: str | Path = ".") -> list[SessionSpe
         return [parse_session(data, base_dir)]
     from pydantic import TypeAdapter
 
-    from bowlrec.batch.job import Sweep
+    from bowlrec.batch.job_spec import Sweep
     from bowlrec.batch.paths import apply_override
     from bowlrec.errors import JobError
 
@@ -243,18 +251,38 @@ def parse_session(data: object, base_dir: str | Path = ".") -> SessionSpec:
     if fmt_ != SESSION_FORMAT:
         raise SceneInputError(f"format = {fmt_!r}: a session file has format {SESSION_FORMAT!r}")
     try:
-        return SessionSpec.model_validate(_inline_scenes(data, Path(base_dir)))
+        return SessionSpec.model_validate(_bowler_scenes(data, Path(base_dir)))
     except ValidationError as err:
         raise SceneInputError(format_validation_error(err)) from None
 
 
 def load_session(path: str | Path) -> SessionSpec:
-    """A session file (JSON or YAML) without a sweep, validated (:func:`parse_session`)."""
-    p = Path(path)
-    return parse_session(read_mapping(p), p.parent)
+    """A session file (JSON or YAML) without a sweep, validated (:func:`parse_session`); every
+    line of an error starts with the file's path."""
+    return _from_file(path, parse_session)
 
 
 def load_sessions(path: str | Path) -> list[SessionSpec]:
-    """The sessions of a session file (JSON or YAML; :func:`expand_sessions`)."""
+    """The sessions of a session file (JSON or YAML; :func:`expand_sessions`); every line of an
+    error starts with the file's path."""
+    return _from_file(path, expand_sessions)
+
+
+def _from_file(path: str | Path, parse: Callable[[Any, Path], _T]) -> _T:
+    """``parse(mapping, directory)`` of a session file; SceneInputError or JobError whose lines
+    start with the path."""
+    from bowlrec.errors import JobError
+
     p = Path(path)
-    return expand_sessions(read_mapping(p), p.parent)
+    try:
+        data = read_mapping(p)
+    except FileNotFoundError:
+        raise SceneInputError(f"{p}: no such file") from None
+    except OSError as err:
+        raise SceneInputError(f"{p}: {err.strerror or err}") from None
+    except SpecFileError as err:
+        raise SceneInputError(f"{p}: {err}") from None
+    try:
+        return parse(data, p.parent)
+    except (SceneInputError, JobError) as err:
+        raise type(err)(prefix_lines(p, str(err))) from None

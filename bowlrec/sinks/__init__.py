@@ -1,11 +1,11 @@
-"""Writers of finished runs to files and viewers: HDF5, MCAP, rerun, NumPy, plots.
+"""Writers of finished runs to files and viewers: HDF5, MCAP, rerun, NumPy, CSV, JSON.
 
 Sinks know formats, never physics: each takes a :class:`RunData` (the scene as given, its
-resolved :class:`~bowlrec.core.plan.Plan`, and the :class:`~bowlrec.core.trajectory.Trajectory`)
-and writes it. :mod:`bowlrec.sinks.registry` declares every file format once and finds it by
-suffix. Heavy libraries (NumPy, h5py, mcap, foxglove, rerun, matplotlib) are imported by the
-modules that use them, on first use, so ``import bowlrec`` and the command line's start-up
-stay fast.
+resolved :class:`~bowlrec.core.plan.Plan`, and the :class:`~bowlrec.core.trajectory.Trajectory`;
+:mod:`bowlrec.spec.run`) and writes it. :mod:`bowlrec.sinks.registry` declares every file format
+once and finds it by suffix (PNG and SVG figures are written by :mod:`bowlrec.figures`). Heavy
+libraries (NumPy, h5py, mcap, foxglove, rerun, matplotlib) are imported by the modules that use
+them, on first use, so ``import bowlrec`` and the command line's start-up stay fast.
 """
 
 from __future__ import annotations

@@ -41,6 +41,7 @@ if TYPE_CHECKING:
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
+    "GZIP_FILTERS",
     "RunFileError",
     "StoredRun",
     "read_run_file",
@@ -53,7 +54,9 @@ FORMAT_NAME = "bowlrec-run"
 #: major.minor: readers accept any minor of their major; a major change breaks old readers
 FORMAT_VERSION = "1.0"
 
-_COMPRESSION: dict[str, Any] = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+#: the one compression of bowlrec's HDF5 files (run files here, archive segments): shuffle +
+#: gzip level 4 (sizes and read times: benchmarks/results/archive.md)
+GZIP_FILTERS: dict[str, Any] = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
 _EVENT_FIELDS = ("t_s", "kind", "x_m", "y_m", "mu", "phase")
 _STR = h5py.string_dtype("utf-8")
 
@@ -79,7 +82,7 @@ class StoredRun:
 def _dataset(group: h5py.Group, name: str, data: Any, units_name: str | None = None) -> None:
     arr = np.asarray(data)
     chunked = arr.ndim >= 1 and arr.size > 0  # HDF5 cannot chunk scalars or empty arrays
-    opts: dict[str, Any] = {"chunks": True, **_COMPRESSION} if chunked else {}
+    opts: dict[str, Any] = {"chunks": True, **GZIP_FILTERS} if chunked else {}
     ds = group.create_dataset(name, data=arr, **opts)
     key = units_name or name
     ds.attrs["units"] = units_for(key)

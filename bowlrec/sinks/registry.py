@@ -3,9 +3,11 @@
 A :class:`Sink` names a format, its suffixes, what it writes, whether it needs a sampled
 trajectory (``options.record`` other than ``'summary'``), the ``bowlrec[extra]`` its libraries
 come from, and its writer: a function ``write(run, path) -> Path`` taking a
-:class:`~bowlrec.sinks.common.RunData` and the file to write, in the module that implements the
-format. That module is imported when the sink is first used, so this registry, ``import
-bowlrec`` and ``bowlrec --help`` load no format library (h5py, mcap, rerun, matplotlib, pandas).
+:class:`~bowlrec.spec.run.RunData` and the file to write, in the module that implements the
+format (the writers of :mod:`bowlrec.sinks`; the figures' writer for PNG and SVG,
+:mod:`bowlrec.figures.trajectory`). That module is imported when the sink is first used, so
+this registry, ``import bowlrec`` and ``bowlrec --help`` load no format library (h5py, mcap,
+rerun, matplotlib, pandas).
 
 The command line (``simulate --out/--mcap/--rrd/--plot``, ``replay``, ``runs export``), the
 service (``GET /runs/ID/files/KIND``) and batch jobs (``formats``) all write through it::
@@ -28,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from bowlrec.errors import MissingExtraError, UnknownFormatError
 
 if TYPE_CHECKING:
-    from .common import RunData
+    from bowlrec.spec.run import RunData
 
 __all__ = ["SINKS", "Sink", "known_suffixes", "sink_for", "sink_named"]
 
@@ -161,7 +163,7 @@ SINKS: tuple[Sink, ...] = (
         "plot",
         "a paper-style lane figure (several runs: overlaid)",
         True,
-        "bowlrec.sinks.plot",
+        "bowlrec.figures.trajectory",
         "write_plot",
         many="plot_runs",
         extra="plot",

@@ -1,7 +1,9 @@
-"""Scene specification: Pydantic models of a delivery in SI units, validation, file loading and
-resolution to the plain-number :class:`~bowlrec.core.plan.Plan`.
+"""Scene specification: Pydantic models of a delivery in SI units, validation, the spec-file
+reader and resolution to the plain-number :class:`~bowlrec.core.plan.Plan`.
 
-Imports only Pydantic, NumPy and (lazily, for .yaml files) PyYAML; never numba.
+The bottom of the scene stack: imports only Pydantic, NumPy and (lazily, for .yaml files)
+PyYAML, never numba, and nothing of bowlrec above the numerics. A scene as a user gives it (a
+file, a mapping, a bowler scene) comes in through :mod:`bowlrec.scene_input`.
 """
 
 from .air import Air
@@ -10,7 +12,7 @@ from .delivery import Delivery
 from .errors import format_validation_error
 from .friction import ConstantFriction, Friction, TypicalFriction, Zone, ZoneFriction
 from .lane import Lane, Topography
-from .loading import dump_scene_json, load_scene
+from .loading import dump_scene_json
 from .options import Options
 from .scene import Scene
 
@@ -29,5 +31,4 @@ __all__ = [
     "ZoneFriction",
     "dump_scene_json",
     "format_validation_error",
-    "load_scene",
 ]

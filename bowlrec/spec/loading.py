@@ -1,9 +1,10 @@
-"""Reading and writing scene files (.json, .yaml, .yml).
+"""Reading and writing spec files (.json, .yaml, .yml).
 
-:func:`read_mapping` is the one reader of every user file (scenes, jobs, balls): a problem with
-the file itself (not JSON/YAML, a YAML alias or tag, nesting too deep, not UTF-8) is a
-:class:`SpecFileError` with one line that says what and where (line and column), never a
-traceback.
+:func:`read_mapping` is the one reader of every user file (scenes, jobs, sessions, balls): a
+problem with the file itself (not JSON/YAML, a YAML alias or tag, nesting too deep, not UTF-8)
+is a :class:`SpecFileError` with one line that says what and where (line and column), never a
+traceback. It parses; it does not validate: a scene is validated where every scene comes in,
+:mod:`bowlrec.scene_input`. PyYAML is imported on the first YAML file.
 """
 
 from __future__ import annotations
@@ -11,17 +12,14 @@ from __future__ import annotations
 import functools
 import json
 from pathlib import Path
-from typing import Any
-
-import yaml
-from yaml.composer import ComposerError
+from typing import TYPE_CHECKING, Any
 
 from bowlrec.errors import SpecFileError
-from bowlrec.scene_input import is_bowler
 
-from .scene import Scene
+if TYPE_CHECKING:
+    from .scene import Scene
 
-__all__ = ["MAX_NESTING", "SpecFileError", "dump_scene_json", "load_scene", "read_mapping"]
+__all__ = ["MAX_NESTING", "SpecFileError", "dump_scene_json", "read_mapping"]
 
 _YAML_SUFFIXES = {".yaml", ".yml"}
 #: deepest nesting of lists and mappings a spec file may have (a job is about 8 levels deep)
@@ -64,6 +62,7 @@ def _parse_json(text: str) -> Any:
 
 
 def _parse_yaml(text: str) -> Any:
+    import yaml
 
     try:
         return yaml.load(text, Loader=_loader_class())  # noqa: S506 - a SafeLoader subclass
@@ -79,6 +78,8 @@ def _parse_yaml(text: str) -> Any:
 @functools.cache
 def _loader_class() -> type:
     """A ``yaml.SafeLoader`` that refuses aliases (built once, on first use)."""
+    import yaml
+    from yaml.composer import ComposerError
 
     class NoAliasLoader(yaml.SafeLoader):
         def compose_node(self, parent: Any, index: Any) -> Any:
@@ -110,26 +111,6 @@ def _depth_exceeds(data: Any, limit: int) -> bool:
             return True
         stack.extend((child, depth + 1) for child in children)
     return False
-
-
-def load_scene(path: str | Path) -> Scene:
-    """Load and validate a scene file; raises ``pydantic.ValidationError`` on invalid content
-    and :class:`SpecFileError` (a ``ValueError``, its message starting with the path) when the
-    file cannot be read as a spec.
-
-    A bowler-language file (top-level ``"format": "bowler"``, see
-    :class:`bowlrec.bowling.scene.BowlerScene`) is resolved to the physical scene.
-    """
-
-    try:
-        data = read_mapping(path)
-    except SpecFileError as err:
-        raise SpecFileError(f"{path}: {err}") from None
-    if is_bowler(data):
-        from bowlrec.bowling.scene import BowlerScene
-
-        return BowlerScene.model_validate(data).to_scene()
-    return Scene.model_validate(data)
 
 
 def dump_scene_json(scene: Scene) -> str:

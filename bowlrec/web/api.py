@@ -1,6 +1,8 @@
 """The API the pages call (and scripts may): figures as SVG/PNG, a run's bowler report,
 Compare, the oil patterns, a job's results, swept-metric plot and live progress.
 
+The figures are :mod:`bowlrec.figures`' (imported when one is asked for: matplotlib is an
+optional extra), rendered by :func:`bowlrec.figures.render.figure_bytes` (SVG reproducibly).
 Figures of archived runs are drawn from the run's samples; a summary-only run is re-recorded
 from its stored scene (:func:`bowlrec.archive.replay.replay_data`, deterministic, checked
 against the stored summary). Drawn figures are cached in ``ARCHIVE/cache/figure/`` like the
@@ -27,7 +29,7 @@ from bowlrec.errors import InputError, NotFoundError
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
-    from bowlrec.sinks.common import RunData
+    from bowlrec.spec.run import RunData
 
 __all__ = [
     "JOB_METRICS",
@@ -154,11 +156,16 @@ def _figure_response(path: Path, fmt: str) -> Response:
 def run_figure(request: Request, run_id: str, fmt: FigureFormat) -> Response:
     """The paper-style figure of a run (lane, oil, path, rotation axes) as SVG or PNG; a
     summary-only run is re-recorded from its scene first (deterministic)."""
-    from .figures import run_figure as draw
+    from bowlrec.figures.render import figure_bytes
+    from bowlrec.figures.trajectory import runs_figure
 
     state = _state(request)
     rid = state.archive.resolve_id(run_id)
-    path = _cached_figure(state, f"{rid}-run", fmt, lambda: draw(state.replays.run(rid), fmt))
+
+    def draw() -> bytes:
+        return figure_bytes(runs_figure([state.replays.run(rid)]), fmt)
+
+    path = _cached_figure(state, f"{rid}-run", fmt, draw)
     return _figure_response(path, fmt)
 
 
@@ -177,14 +184,19 @@ def compare_figure(
     ids: Annotated[list[str], Query(description="Run IDs (or prefixes), in legend order.")],
 ) -> Response:
     """Several runs' paths overlaid in one paper-style figure (2 to MAX_COMPARE runs)."""
-    from .figures import compare_figure as draw
+    from bowlrec.figures.render import figure_bytes
+    from bowlrec.figures.trajectory import runs_figure
 
     state = _state(request)
     rids = [state.archive.resolve_id(i) for i in ids]
     if not 1 <= len(rids) <= MAX_COMPARE:
         raise InputError(f"ids: {len(rids)} runs given; compare 1 to {MAX_COMPARE} runs")
     key = hashlib.sha256(" ".join(rids).encode()).hexdigest()[:40] + "-compare"
-    path = _cached_figure(state, key, fmt, lambda: draw([state.replays.run(r) for r in rids], fmt))
+
+    def draw() -> bytes:
+        return figure_bytes(runs_figure([state.replays.run(r) for r in rids]), fmt)
+
+    path = _cached_figure(state, key, fmt, draw)
     return _figure_response(path, fmt)
 
 
@@ -241,8 +253,8 @@ def ball_figure(
     asymmetric core) the PSA. 404 for a ball given in physical terms (it has no pin or RG
     axes to lay out)."""
     from bowlrec.bowling.layout import load_example_library
-
-    from .figures import ball_figure as draw
+    from bowlrec.figures.ball import ball_figure as draw
+    from bowlrec.figures.render import figure_bytes
 
     entry = _state(request).archive.balls.get(ref)
     library = load_example_library()
@@ -253,10 +265,10 @@ def ball_figure(
                 f"{what}: {given[:60]!r} is not in the catalog; one of {', '.join(ids[what])}"
             )
     chosen = library.layout(layout or ids["layout"][0])
-    data = draw(entry, fmt, layout=chosen, pap=library.pap(pap or ids["pap"][0]))
-    if data is None:
+    fig = draw(entry, layout=chosen, pap=library.pap(pap or ids["pap"][0]))
+    if fig is None:
         raise NotFoundError(f"ball {entry.ref} has no layout to draw (a physical spec)")
-    return Response(data, media_type=MEDIA[fmt])
+    return Response(figure_bytes(fig, fmt), media_type=MEDIA[fmt])
 
 
 def pattern_cards() -> list[dict[str, Any]]:
@@ -289,15 +301,17 @@ def list_patterns() -> list[dict[str, Any]]:
 def pattern_figure(name: str, fmt: FigureFormat) -> Response:
     """An oil pattern drawn as a Kegel graph (oil per board along the lane)."""
     from bowlrec.bowling.oil import preset, preset_names
-
-    from .figures import pattern_figure as draw
+    from bowlrec.figures.oil import pattern_figure as draw
+    from bowlrec.figures.render import figure_bytes
 
     if name not in preset_names():
         raise NotFoundError(
             f"no oil pattern {name[:60]!r}; the patterns are {', '.join(preset_names())}"
         )
     return Response(
-        draw(preset(name), fmt), media_type=MEDIA[fmt], headers={"Cache-Control": "max-age=3600"}
+        figure_bytes(draw(preset(name)), fmt),
+        media_type=MEDIA[fmt],
+        headers={"Cache-Control": "max-age=3600"},
     )
 
 
@@ -357,7 +371,8 @@ def job_figure(
 ) -> Response:
     """A metric of the job's runs against one of its swept parameters (first MAX_JOB_ROWS
     runs; runs not archived are left out)."""
-    from .figures import sweep_figure
+    from bowlrec.figures.render import figure_bytes
+    from bowlrec.figures.sweep import sweep_figure
 
     state = _state(request)
     spec = state.jobs.spec(job_id)
@@ -374,8 +389,8 @@ def job_figure(
             xs.append(float(value))
             ys.append(float(r[y]) * scale)
     name = state.jobs.get(job_id, with_runs=False).name
-    data = sweep_figure(xs, ys, x_label=x, y_label=label, title=f"job {name}", fmt=fmt)
-    return Response(data, media_type=MEDIA[fmt])
+    fig = sweep_figure(xs, ys, x_label=x, y_label=label, title=f"job {name}")
+    return Response(figure_bytes(fig, fmt), media_type=MEDIA[fmt])
 
 
 @figures.get("/jobs/{job_id}/events")

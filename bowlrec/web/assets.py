@@ -21,7 +21,7 @@ from .viewer_assets import ViewerAssets
 
 __all__ = ["STATIC_DIR", "mount", "prepare_viewer_in_background"]
 
-log = logging.getLogger("bowlrec.service")
+log = logging.getLogger(__name__)
 
 STATIC_DIR = Path(__file__).parent / "static"
 #: the viewer's pages may run their own inline scripts and WebAssembly and connect only to

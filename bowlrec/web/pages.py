@@ -6,15 +6,20 @@ Compare (``/ui/compare?ids=A&ids=B``), the ball library (``/ui/balls``), oil pat
 progress come from the JSON/figure API (:mod:`bowlrec.web.api`), which the pages call with the
 browser's cookie session; a server with a token shows a sign-in form until the session is open.
 Everything the pages load is served by this server (``/static``, ``/viewer``): no CDN.
+
+The pages do not know how a request signs in: the application that serves them keeps, in
+``app.state.bowlrec``, an object with the methods of :class:`Host` (the service's state), whose
+``signed_in`` is the same check the API's routes make, and whose ``status_for`` gives an error
+the status the API gives it.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Protocol
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Depends, Request
 from fastapi.responses import HTMLResponse, Response
 from fastapi.templating import Jinja2Templates
 
@@ -26,7 +31,7 @@ from bowlrec.versions import __version__
 from .seeds import SEEDS
 from .tables import PAGE_SIZES, RANGES, RUN_COLUMNS, RunsQuery, runs_page
 
-__all__ = ["TEMPLATES_DIR", "pages"]
+__all__ = ["TEMPLATES_DIR", "Host", "SignedIn", "pages"]
 
 TEMPLATES_DIR = Path(__file__).parent / "templates"
 templates = Jinja2Templates(directory=str(TEMPLATES_DIR))
@@ -85,26 +90,37 @@ REPORT_FIELDS: tuple[tuple[str, str, str], ...] = (
 )
 
 
+class Host(Protocol):
+    """What the pages need of the application serving them, besides its archive and jobs
+    (``app.state.bowlrec``)."""
+
+    def signed_in(self, request: Request) -> bool:
+        """True when ``request`` may see the archive (the API's own check)."""
+        ...
+
+    def status_for(self, err: BowlrecError) -> int:
+        """The HTTP status the API answers ``err`` with."""
+        ...
+
+
 def _state(request: Request) -> Any:
     return request.app.state.bowlrec
 
 
 def _signed_in(request: Request) -> bool:
-    """True when the request may see the archive: no token, the bearer token or a session."""
-    from bowlrec.service.security import COOKIE_NAME, bearer_matches
+    """True when the request may see the archive: the serving application's check."""
+    host: Host = _state(request)
+    return bool(host.signed_in(request))
 
-    state = _state(request)
-    if state.token is None:
-        return True
-    if bearer_matches(request.headers.get("authorization"), state.token):
-        return True
-    return bool(state.sessions.valid(request.cookies.get(COOKIE_NAME)))
+
+#: a page's parameter: whether its request may see the archive
+SignedIn = Annotated[bool, Depends(_signed_in)]
 
 
 def _render(
-    request: Request, template: str, status_code: int = 200, **context: Any
+    request: Request, signed_in: bool, template: str, status_code: int = 200, **context: Any
 ) -> HTMLResponse:
-    if not _signed_in(request):
+    if not signed_in:
         template, status_code = "signin.html", 401
         context = {"page": "signin", "title": "Sign in"}
     context.setdefault("page", template.removesuffix(".html"))
@@ -114,16 +130,15 @@ def _render(
 
 
 def _error_page(request: Request, err: BowlrecError) -> HTMLResponse:
-    """The error as a page, with the status the API gives it."""
-    from bowlrec.service.app import status_for
-
-    redact = _state(request).redact
+    """The error as a page, with the status the API gives it (for a signed-in request)."""
+    host: Host = _state(request)
     return _render(
         request,
+        True,
         "error.html",
-        status_code=status_for(err),
+        status_code=host.status_for(err),
         title="Error",
-        message=redact(str(err)),
+        message=_state(request).redact(str(err)),
     )
 
 
@@ -162,10 +177,9 @@ def report_cells(report: dict[str, Any]) -> list[tuple[str, str]]:
 
 
 @pages.get("/", response_class=HTMLResponse)
-def runs_table(request: Request) -> Response:
+def runs_table(request: Request, signed_in: SignedIn) -> Response:
     """The runs table: filters, sort and pages on the server (the index only)."""
     state = _state(request)
-    signed_in = _signed_in(request)
     params = dict(request.query_params)
     context: dict[str, Any] = {
         "title": "Runs",
@@ -181,16 +195,16 @@ def runs_table(request: Request) -> Response:
         table = runs_page(state.archive, query) if signed_in else None
     except InputError as err:
         return _render(
-            request, "runs.html", status_code=422, error=state.redact(str(err)), **context
+            request, signed_in, "runs.html", 422, error=state.redact(str(err)), **context
         )
-    return _render(request, "runs.html", query=query, table=table, **context)
+    return _render(request, signed_in, "runs.html", query=query, table=table, **context)
 
 
 @pages.get("/ui/runs/{run_id}", response_class=HTMLResponse)
-def run_page(request: Request, run_id: str) -> Response:
+def run_page(request: Request, run_id: str, signed_in: SignedIn) -> Response:
     """One run: summary, bowler report, figure, downloads, scene and the rerun viewer."""
-    if not _signed_in(request):
-        return _render(request, "run.html")
+    if not signed_in:
+        return _render(request, False, "run.html")
     state = _state(request)
     from .api import cached_report
 
@@ -207,6 +221,7 @@ def run_page(request: Request, run_id: str) -> Response:
     base = str(request.base_url).rstrip("/")
     return _render(
         request,
+        True,
         "run.html",
         title=f"Run {rid[:12]}",
         rid=rid,
@@ -221,12 +236,12 @@ def run_page(request: Request, run_id: str) -> Response:
 
 
 @pages.get("/ui/compare", response_class=HTMLResponse)
-def compare_page(request: Request) -> Response:
+def compare_page(request: Request, signed_in: SignedIn) -> Response:
     """Several runs: their paths overlaid in one figure and their summaries side by side."""
     state = _state(request)
     ids = [i for i in request.query_params.getlist("ids") if i.strip()]
-    if not _signed_in(request):
-        return _render(request, "compare.html")
+    if not signed_in:
+        return _render(request, False, "compare.html")
     rows = []
     try:
         for given in ids:
@@ -241,6 +256,7 @@ def compare_page(request: Request) -> Response:
     query = "&".join(f"ids={r['run_id']}" for r in rows)
     return _render(
         request,
+        True,
         "compare.html",
         title="Compare",
         rows=rows,
@@ -255,10 +271,10 @@ def compare_page(request: Request) -> Response:
 
 
 @pages.get("/ui/balls", response_class=HTMLResponse)
-def balls_page(request: Request) -> Response:
+def balls_page(request: Request, signed_in: SignedIn) -> Response:
     """The ball library: spec sheets, legality and layouts (latest version of each ball)."""
-    if not _signed_in(request):
-        return _render(request, "balls.html")
+    if not signed_in:
+        return _render(request, False, "balls.html")
     from .api import ball_card, catalog_layouts
 
     state = _state(request)
@@ -266,6 +282,7 @@ def balls_page(request: Request) -> Response:
     choices = catalog_layouts()
     return _render(
         request,
+        True,
         "balls.html",
         title="Ball library",
         cards=cards,
@@ -275,31 +292,31 @@ def balls_page(request: Request) -> Response:
 
 
 @pages.get("/ui/patterns", response_class=HTMLResponse)
-def patterns_page(request: Request) -> Response:
+def patterns_page(request: Request, signed_in: SignedIn) -> Response:
     """The oil patterns that ship with bowlrec, each drawn as a Kegel graph."""
     from .api import pattern_cards
 
-    return _render(request, "patterns.html", title="Oil patterns", cards=pattern_cards())
+    return _render(request, signed_in, "patterns.html", title="Oil patterns", cards=pattern_cards())
 
 
 # -- jobs ----------------------------------------------------------------------------------------
 
 
 @pages.get("/ui/jobs", response_class=HTMLResponse)
-def jobs_page(request: Request) -> Response:
+def jobs_page(request: Request, signed_in: SignedIn) -> Response:
     """Every job of the archive, and a JSON editor to submit a job or a scene."""
-    if not _signed_in(request):
-        return _render(request, "jobs.html")
+    if not signed_in:
+        return _render(request, False, "jobs.html")
     state = _state(request)
     seeds = [{"label": s.label, "kind": s.kind, "text": s.text()} for s in SEEDS]
-    return _render(request, "jobs.html", title="Jobs", jobs=state.jobs.list(), seeds=seeds)
+    return _render(request, True, "jobs.html", title="Jobs", jobs=state.jobs.list(), seeds=seeds)
 
 
 @pages.get("/ui/jobs/{job_id}", response_class=HTMLResponse)
-def job_page(request: Request, job_id: str) -> Response:
+def job_page(request: Request, job_id: str, signed_in: SignedIn) -> Response:
     """A job: live progress, its results table and a swept metric against a swept parameter."""
-    if not _signed_in(request):
-        return _render(request, "job.html")
+    if not signed_in:
+        return _render(request, False, "job.html")
     state = _state(request)
     from .api import JOB_METRICS, job_axes
 
@@ -310,6 +327,7 @@ def job_page(request: Request, job_id: str) -> Response:
         return _error_page(request, err)
     return _render(
         request,
+        True,
         "job.html",
         title=f"Job {status.name}",
         job=status,

@@ -1,10 +1,6 @@
-"""Figures of a session: the oil on the lane before and after (Kegel-style maps and the
-per-board composite), and the drift of the breakpoint, the entry board and the entry angle
-shot by shot.
-
-Every function returns a :class:`~matplotlib.figure.Figure` (on an Agg canvas, never pyplot;
-matplotlib is imported inside the functions); :func:`figure_bytes` renders it as SVG (the same
-bytes for the same input: :func:`bowlrec.web.figures._render`) or PNG.
+"""Figures of a session (``bowlrec session run``): the oil on the lane before and after
+(Kegel-style maps and the per-board composite), and the drift of the breakpoint, the entry
+board and the entry angle shot by shot.
 """
 
 from __future__ import annotations
@@ -14,13 +10,19 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from matplotlib.colors import TwoSlopeNorm
+from matplotlib.figure import Figure
+
+from bowlrec.bowling.oil import board_volumes_ul
+from bowlrec.units import BOARDS
+
+from .oil import BOARD_TICKS, OIL_CMAP, OIL_COLOR, oil_density, on_grid, vector_colorbar
+from .render import new_figure
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
     from bowlrec.bowling.oil import OilGrid
 
-__all__ = ["DRIFT_METRICS", "drift_figure", "figure_bytes", "oil_before_after_figure"]
+__all__ = ["DRIFT_METRICS", "drift_figure", "oil_before_after_figure"]
 
 #: (key of a shot dict, axis label) of the drift figure's panels, top to bottom
 DRIFT_METRICS = (
@@ -29,32 +31,8 @@ DRIFT_METRICS = (
     ("entry_board", "entry board at the pins"),
     ("entry_angle_deg", "entry angle (deg)"),
 )
-_BOARD_TICKS = [1, 5, 10, 15, 20, 25, 30, 35, 39]
-
-
-def figure_bytes(fig: Figure, fmt: str = "svg") -> bytes:
-    """The bytes of ``fig`` as "svg" (reproducible) or "png" (:data:`bowlrec.web.figures.PNG_DPI`
-    dots per inch). ValueError for another format."""
-    from bowlrec.web.figures import _render
-
-    if fmt not in ("svg", "png"):
-        raise ValueError(f"fmt = {fmt!r} must be 'svg' or 'png'")
-    return _render(fig, "svg" if fmt == "svg" else "png")
-
-
-def _density(grid: OilGrid) -> Any:
-    """µL per board per ft of every cell."""
-    return grid.volume_ul / np.outer(np.diff(grid.x_edges_ft), np.diff(grid.board_edges))
-
-
-def _on_grid(grid: OilGrid, like: OilGrid) -> OilGrid:
-    """``grid`` on the cells of ``like`` (itself if they are the same)."""
-    from bowlrec.bowling.oil_transfer import resample_grid
-
-    same = np.array_equal(grid.x_edges_ft, like.x_edges_ft) and np.array_equal(
-        grid.board_edges, like.board_edges
-    )
-    return grid if same else resample_grid(grid, like.x_edges_ft, like.board_edges)
+#: the bars of the oil after the session
+AFTER_COLOR = "#4a6fa5"
 
 
 def oil_before_after_figure(before: OilGrid, after: OilGrid, *, title: str) -> Figure:
@@ -63,52 +41,42 @@ def oil_before_after_figure(before: OilGrid, after: OilGrid, *, title: str) -> F
     distance maps, boards counted from the right gutter and the distance from the foul line up;
     and the oil per board over the whole lane before and after (Kegel's composite graph, µL per
     board). ``after`` is shown on ``before``'s cells when they differ (volume conserved)."""
-    from matplotlib.colors import TwoSlopeNorm
-    from matplotlib.figure import Figure
-
-    from bowlrec.bowling.oil import board_volumes_ul
-    from bowlrec.units import BOARDS
-
-    after = _on_grid(after, before)
-    d0, d1 = _density(before), _density(after)
+    after = on_grid(after, before)
+    d0, d1 = oil_density(before), oil_density(after)
     diff = d1 - d0
     end = max(before.oil_end_ft, after.oil_end_ft, 1.0)
     end = min(float(before.x_edges_ft[-1]), math.ceil(end + 2.0))
     top = max(float(d0.max(initial=0.0)), float(d1.max(initial=0.0)), 1e-9)
     span = max(float(np.abs(diff).max(initial=0.0)), 1e-9)
 
-    fig = Figure(figsize=(12.0, 4.6), layout="constrained")
+    fig = new_figure(figsize=(12.0, 4.6), layout="constrained")
     axes = fig.subplots(1, 4, width_ratios=(1.0, 1.0, 1.0, 1.5))
     xs = before.board_edges + 0.5
     ys = before.x_edges_ft
     mesh = None
     for ax, dens, grid, name in ((axes[0], d0, before, "before"), (axes[1], d1, after, "after")):
-        mesh = ax.pcolormesh(xs, ys, dens, cmap="YlOrBr", vmin=0.0, vmax=top, shading="flat")
+        mesh = ax.pcolormesh(xs, ys, dens, cmap=OIL_CMAP, vmin=0.0, vmax=top, shading="flat")
         ax.set_title(f"{name}: {float(grid.volume_ul.sum()) / 1000.0:.2f} mL", fontsize=10)
     assert mesh is not None
-    cbar = fig.colorbar(mesh, ax=axes[:2], label="oil (µL per board per ft)", shrink=0.9)
-    if cbar.solids is not None:
-        cbar.solids.set_rasterized(False)
+    vector_colorbar(fig, mesh, ax=axes[:2], label="oil (µL per board per ft)", shrink=0.9)
     norm = TwoSlopeNorm(vcenter=0.0, vmin=-span, vmax=span)
     dm = axes[2].pcolormesh(xs, ys, diff, cmap="RdBu", norm=norm, shading="flat")
-    dbar = fig.colorbar(dm, ax=axes[2], label="after - before (µL per board per ft)", shrink=0.9)
-    if dbar.solids is not None:
-        dbar.solids.set_rasterized(False)
+    vector_colorbar(fig, dm, ax=axes[2], label="after - before (µL per board per ft)", shrink=0.9)
     axes[2].set_title("difference", fontsize=10)
     for ax in axes[:3]:
         ax.set_xlim(0.5, BOARDS + 0.5)
         ax.set_ylim(0.0, end)
         ax.set_xlabel("board")
-        ax.set_xticks(_BOARD_TICKS)
+        ax.set_xticks(BOARD_TICKS)
     axes[0].set_ylabel("distance from the foul line (ft)")
 
     boards = np.arange(1, BOARDS + 1)
     b0, b1 = board_volumes_ul(before), board_volumes_ul(after)
     ax = axes[3]
-    ax.bar(boards - 0.2, b0, width=0.4, color="#b07a2a", label="before")
-    ax.bar(boards + 0.2, b1, width=0.4, color="#4a6fa5", label="after")
+    ax.bar(boards - 0.2, b0, width=0.4, color=OIL_COLOR, label="before")
+    ax.bar(boards + 0.2, b1, width=0.4, color=AFTER_COLOR, label="after")
     ax.set_xlim(0.5, BOARDS + 0.5)
-    ax.set_xticks(_BOARD_TICKS)
+    ax.set_xticks(BOARD_TICKS)
     ax.set_xlabel("board")
     ax.set_ylabel("oil over the lane (µL per board)")
     ax.set_title("oil per board", fontsize=10)
@@ -119,6 +87,7 @@ def oil_before_after_figure(before: OilGrid, after: OilGrid, *, title: str) -> F
 
 
 def _value(shot: Mapping[str, Any], key: str) -> float:
+    """The shot's ``key`` as a float (NaN when missing or not a number)."""
     v = shot.get(key)
     try:
         f = float(v)  # type: ignore[arg-type]
@@ -133,9 +102,7 @@ def drift_figure(shots: Sequence[Mapping[str, Any]], *, by: str = "game") -> Fig
     appearance), and the mean of each group of ``by`` (e.g. "game") as a horizontal line over
     the group's shots. Missing or non-finite values (a gutter ball's entry) are left out.
     Shot dicts carry ``shot``, ``game``, ``bowler`` and the :data:`DRIFT_METRICS` keys."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(8.0, 8.5), layout="constrained")
+    fig = new_figure(figsize=(8.0, 8.5), layout="constrained")
     axes = fig.subplots(len(DRIFT_METRICS), 1, sharex=True)
     bowlers: list[str] = []
     for s in shots:

@@ -1,9 +1,11 @@
 """The JSON Schemas of bowlrec's input files (the files under ``schemas/``).
 
 ``SCHEMAS`` names each schema and the function that returns its canonical text: the physical
-scene and its parts, the bowler-language scene (``"format": "bowler"``) and the batch job
-(``"format": "bowlrec-job"``). ``bowlrec schema NAME`` prints one; ``bowlrec schema --out
-DIR`` writes them all as ``DIR/NAME.schema.json``.
+scene and its parts (:mod:`bowlrec.spec`), the bowler-language scene (``"format": "bowler"``,
+:mod:`bowlrec.bowling.scene`) and the batch job (``"format": "bowlrec-job"``,
+:mod:`bowlrec.batch.job_spec`). ``bowlrec schema NAME`` prints one; ``bowlrec schema --out
+DIR`` writes them all as ``DIR/NAME.schema.json``. The schemas span the scene, bowler and batch
+layers, so they are gathered here, on the command line's floor.
 """
 
 from __future__ import annotations
@@ -14,11 +16,7 @@ from pathlib import Path
 
 from pydantic import BaseModel
 
-from .ball import Ball
-from .delivery import Delivery
-from .lane import Lane
-from .options import Options
-from .scene import Scene
+from bowlrec.spec import Ball, Delivery, Lane, Options, Scene
 
 __all__ = ["SCHEMAS", "SCHEMA_MODELS", "export_schemas", "schema_file", "schema_text"]
 
@@ -44,7 +42,7 @@ def _bowler_scene_text() -> str:
 
 
 def _job_text() -> str:
-    from bowlrec.batch.job import job_schema_text
+    from bowlrec.batch.job_spec import job_schema_text
 
     return job_schema_text()
 

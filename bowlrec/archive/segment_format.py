@@ -1,0 +1,272 @@
+"""The segment format's shared parts: format strings, column names, the run record, the
+sealed segment's info and the per-run digest (docs/archive-format.md, "Segments" and
+"Digests").
+
+Both sides of a segment use them: :mod:`.segment` builds and seals segments,
+:mod:`.segment_file` writes and reads the HDF5 files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
+
+if TYPE_CHECKING:
+    from bowlrec.sinks.common import RunData
+
+__all__ = [
+    "EVENT_FIELDS",
+    "FIXED_GROUPS",
+    "RECORDS_FORMAT_VERSION",
+    "RUN_FLOAT_COLUMNS",
+    "RUN_STRING_COLUMNS",
+    "SEGMENT_FORMAT",
+    "SEGMENT_FORMAT_VERSION",
+    "SUMMARY_FLOAT_COLUMNS",
+    "SUMMARY_INT_COLUMNS",
+    "TRAJECTORY_FIELDS",
+    "RunRecord",
+    "SegmentInfo",
+    "check_records",
+    "event_columns",
+    "fixed_columns",
+    "format_version_of",
+    "new_segment_id",
+    "row_matrix",
+    "run_digest",
+    "sample_columns",
+]
+
+SEGMENT_FORMAT = "bowlrec-segment"
+#: major.minor: readers accept every minor of their major (docs/archive-format.md)
+SEGMENT_FORMAT_VERSION = "2.0"
+#: the minor version a segment declares when it holds per-run record groups (``RunRecord.records``)
+RECORDS_FORMAT_VERSION = "2.1"
+#: groups with a fixed place in the digest (parts 1-6); any other group with an ``offsets``
+#: dataset is a per-run record group (parts 7 and on, groups in sorted name order)
+FIXED_GROUPS = frozenset({"runs", "summary", "events", "trajectory", "torques"})
+
+#: summary metrics stored as float64 columns (NaN stands for None) and as int64 columns
+SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
+SUMMARY_INT_COLUMNS = INT_METRICS
+#: per-run index columns that are not summary metrics
+RUN_FLOAT_COLUMNS = ("speed_mps", "rev_rate_rpm", "mass_kg", "rtol", "wall_time_s")
+RUN_STRING_COLUMNS = ("run_id", "name", "ball_ref", "ball_sha", "pattern", "record", "solver")
+#: per-sample trajectory quantities (first axis = sample), in the digest's order
+TRAJECTORY_FIELDS = (
+    "alpha_radps2",
+    "energy_J",
+    "friction_force_N",
+    "mu",
+    "normal_force_N",
+    "omega_radps",
+    "phase",
+    "position_m",
+    "quaternion_wxyz",
+    "slip_mps",
+    "t_s",
+    "velocity_mps",
+)
+#: per-event columns; kind and phase are fixed-length UTF-8 strings
+EVENT_FIELDS = ("kind", "mu", "phase", "t_s", "x_m", "y_m")
+
+
+def new_segment_id() -> str:
+    """A new segment ID that sorts by creation time: 16 hex digits of ns since the epoch, a
+    dash and 8 random hex digits (unique across processes and machines)."""
+    return f"{time.time_ns():016x}-{uuid.uuid4().hex[:8]}"
+
+
+@dataclass
+class RunRecord:
+    """One run as a segment stores it (everything plain: strings, floats, arrays).
+
+    ``scene_json`` is the scene as given (compact JSON); ``created_at_ns`` nanoseconds since
+    1970-01-01 UTC; the index columns (``speed_mps`` ... ``pattern``) are what the archive's
+    index lists without opening the segment.
+    """
+
+    run_id: str
+    scene_json: bytes
+    summary: Summary
+    name: str
+    ball_ref: str
+    ball_sha: str
+    pattern: str
+    record: str
+    solver: str
+    speed_mps: float
+    rev_rate_rpm: float
+    mass_kg: float
+    rtol: float
+    wall_time_s: float
+    created_at_ns: int
+    #: per-sample arrays by TRAJECTORY_FIELDS name (empty arrays for a summary-only run)
+    trajectory: dict[str, NDArray[Any]] = field(default_factory=dict)
+    #: per-term torques (n, 3) in N m, only when recorded
+    torques: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    #: events as (kind, mu, phase, t_s, x_m, y_m) tuples
+    events: list[tuple[str, float, str, float, float, float]] = field(default_factory=list)
+    #: per-run record groups (format 2.1): group name -> {dataset name: array}, the arrays of a
+    #: group with equal first dimensions (the run's rows of that group), e.g. the oil grid after
+    #: a session's shot (``bowlrec.session.records``)
+    records: dict[str, dict[str, NDArray[Any]]] = field(default_factory=dict)
+
+    @classmethod
+    def from_run(
+        cls,
+        run: RunData,
+        *,
+        wall_time_s: float,
+        ball_ref: str,
+        solver: str,
+        ball_sha: str,
+        pattern: str,
+        created_at_ns: int | None = None,
+        records: dict[str, dict[str, NDArray[Any]]] | None = None,
+    ) -> RunRecord:
+        """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set;
+        ``records``: its per-run record groups (see :attr:`RunRecord.records`)."""
+        assert run.run_id is not None, "a run needs its content ID before it is archived"
+        plan, traj = run.plan, run.trajectory
+        v, w = plan.velocity0_mps, plan.omega0_radps
+        return cls(
+            run_id=run.run_id,
+            scene_json=run.scene_json().encode(),
+            summary=traj.summary,
+            name=run.scene.name,
+            ball_ref=ball_ref,
+            ball_sha=ball_sha,
+            pattern=pattern,
+            record=run.scene.options.record,
+            solver=solver,
+            speed_mps=float(np.hypot(v[0], v[1])),
+            rev_rate_rpm=float(np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]))
+            * 60.0
+            / (2.0 * np.pi),
+            mass_kg=float(plan.mass_kg),
+            rtol=float(plan.rtol),
+            wall_time_s=float(wall_time_s),
+            # whole microseconds: the precision listings show, so a time copied from a listing
+            # finds the run again in a created_at filter
+            created_at_ns=(time.time_ns() if created_at_ns is None else created_at_ns)
+            // 1000
+            * 1000,
+            trajectory={name: getattr(traj, name) for name in TRAJECTORY_FIELDS}
+            if traj.n_samples
+            else {},
+            torques=dict(traj.torques_Nm),
+            events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
+            records=check_records(run.run_id, records or {}),
+        )
+
+
+def check_records(
+    run_id: str, records: dict[str, dict[str, NDArray[Any]]]
+) -> dict[str, dict[str, NDArray[Any]]]:
+    """``records`` as contiguous arrays, checked: group names outside the fixed groups, at least
+    one dataset per group, no dataset named ``offsets``, equal first dimensions within a group
+    (ValueError naming the run otherwise)."""
+    out: dict[str, dict[str, NDArray[Any]]] = {}
+    for group, datasets in records.items():
+        if group in FIXED_GROUPS or group.startswith("_") or "/" in group or not group:
+            raise ValueError(f"run {run_id}: {group!r} cannot name a per-run record group")
+        arrays = {k: np.ascontiguousarray(v) for k, v in datasets.items()}
+        if not arrays or "offsets" in arrays:
+            raise ValueError(
+                f"run {run_id}: record group {group!r} needs datasets other than 'offsets'"
+            )
+        rows = {a.shape[0] if a.ndim else -1 for a in arrays.values()}
+        if len(rows) != 1 or -1 in rows:
+            raise ValueError(
+                f"run {run_id}: the datasets of record group {group!r} need equal first "
+                f"dimensions (got {sorted(rows)})"
+            )
+        out[group] = arrays
+    return out
+
+
+@dataclass(frozen=True)
+class SegmentInfo:
+    """A sealed segment: its ID, path and the IDs of its runs (in row order).
+
+    A segment sealed in this process also carries what registering it needs (its per-run
+    index columns and provenance), so registration does not read the file back.
+    """
+
+    segment_id: str
+    path: Path
+    run_ids: tuple[str, ...]
+    index_columns: dict[str, NDArray[Any]] | None = field(default=None, compare=False, repr=False)
+    provenance: dict[str, Any] | None = field(default=None, compare=False, repr=False)
+
+
+# -- digests -------------------------------------------------------------------------------------
+
+
+def run_digest(
+    fixed_row: bytes | memoryview,
+    scene: bytes | memoryview,
+    message: bytes | memoryview,
+    events: bytes | memoryview,
+    samples: bytes | memoryview,
+    torques: bytes | memoryview,
+    *extra: bytes | memoryview,
+) -> bytes:
+    """BLAKE2b-128 of one run's stored bytes (docs/archive-format.md, "Digests").
+
+    Each part is preceded by its length (8 bytes, little-endian): the run's row of the per-run
+    matrix, its scene JSON, its summary message, its rows of the event, sample and torque
+    matrices, then the rows of any further per-run record group (later 2.x versions). Returns 32
+    hex digits as ASCII bytes.
+    """
+    h = hashlib.blake2b(digest_size=16)
+    for part in (fixed_row, scene, message, events, samples, torques, *extra):
+        h.update(len(part).to_bytes(8, "little"))
+        h.update(part)
+    return h.hexdigest().encode()
+
+
+def row_matrix(columns: Sequence[NDArray[Any]], n: int) -> NDArray[np.uint8]:
+    """The columns' raw bytes side by side: row i holds every column's i-th entry (n, width)."""
+    if not columns:
+        return np.zeros((n, 0), dtype=np.uint8)
+    parts = []
+    for c in columns:
+        arr = np.ascontiguousarray(c)
+        width = int(np.prod(arr.shape[1:], dtype=np.int64)) * arr.dtype.itemsize
+        parts.append(arr.reshape(-1).view(np.uint8).reshape(n, width))
+    return np.ascontiguousarray(np.hstack(parts))
+
+
+def fixed_columns(runs: dict[str, NDArray[Any]], summary: dict[str, NDArray[Any]]) -> list[Any]:
+    """The fixed-width per-run columns in digest order: runs/* then summary/* (names sorted),
+    without runs/digest."""
+    cols = [runs[k] for k in sorted(runs) if k != "digest"]
+    cols += [summary[k] for k in sorted(summary)]
+    return cols
+
+
+def event_columns(events: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
+    return [events[k] for k in EVENT_FIELDS]
+
+
+def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
+    return [trajectory[k] for k in TRAJECTORY_FIELDS if k in trajectory]
+
+
+def format_version_of(columns: dict[str, Any]) -> str:
+    """The segment format version of a segment's datasets: 2.1 when they hold per-run record
+    groups, else 2.0 (a segment without them is exactly a 2.0 segment)."""
+    extra = any(g not in FIXED_GROUPS and not g.startswith("_") for g in columns)
+    return RECORDS_FORMAT_VERSION if extra else SEGMENT_FORMAT_VERSION

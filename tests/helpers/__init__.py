@@ -1,0 +1,2 @@
+"""Helper modules the tests share (importable as ``helpers.<module>``: ``pythonpath`` includes
+``tests/``)."""
