@@ -80,7 +80,9 @@ WARM_UP: dict[str, float] = {}
 #: per tier: tests selected and deselected (this process, or summed over the xdist workers)
 SELECTED: Counter[str] = Counter()
 DESELECTED: Counter[str] = Counter()
-#: kernels compiled after the warm-up, by the test processes (a kernel the warm-up misses)
+#: kernels compiled by the warm-up, and after it by the test processes (what the warm-up
+#: misses: each xdist worker compiles it again), by name
+COMPILED_IN_WARM_UP: Counter[str] = Counter()
 COMPILED_IN_TESTS: Counter[str] = Counter()
 
 VIOLATIONS = pytest.StashKey[list[str]]()
@@ -211,8 +213,14 @@ def _dispatchers() -> list[Any]:
     ]
 
 
-def _compiled() -> int:
-    return sum(sum(d.stats.cache_misses.values()) for d in _dispatchers())
+def _compiled() -> Counter[str]:
+    """Compilations of this process (numba cache misses), by kernel."""
+    out: Counter[str] = Counter()
+    for d in _dispatchers():
+        misses = sum(d.stats.cache_misses.values())
+        if misses:
+            out[f"{d.__module__.removeprefix('bowlrec.')}.{d.__name__}"] += misses
+    return out
 
 
 def warm_up_kernels() -> None:
@@ -285,6 +293,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     stats = [d.stats for d in _dispatchers()]
     WARM_UP["compiled"] = sum(sum(s.cache_misses.values()) for s in stats)
     WARM_UP["loaded"] = sum(sum(s.cache_hits.values()) for s in stats)
+    COMPILED_IN_WARM_UP.update(_compiled())
     _report(config, _summary())
 
 
@@ -452,14 +461,14 @@ def pytest_runtest_call(item: pytest.Item) -> Iterator[None]:
 
 def pytest_sessionfinish(session: pytest.Session) -> None:
     config = session.config
-    compiled = _compiled() - int(WARM_UP.get("compiled", 0))
+    compiled = _compiled() - COMPILED_IN_WARM_UP
     if _is_worker(config):
         out = config.workeroutput  # type: ignore[attr-defined]
         out["bowlrec_selected"] = dict(SELECTED)
         out["bowlrec_deselected"] = dict(DESELECTED)
-        out["bowlrec_compiled"] = compiled
-    elif compiled > 0:
-        COMPILED_IN_TESTS["this process"] += compiled
+        out["bowlrec_compiled"] = dict(compiled)
+    else:
+        COMPILED_IN_TESTS.update(compiled)
 
 
 _SEEN_WORKERS: set[str] = set()
@@ -475,17 +484,17 @@ def pytest_testnodedown(node: Any, error: object) -> None:
         SELECTED.update(out["bowlrec_selected"])
         DESELECTED.update(out["bowlrec_deselected"])
     _SEEN_WORKERS.add(node.gateway.id)
-    if out.get("bowlrec_compiled"):
-        COMPILED_IN_TESTS[node.gateway.id] += out["bowlrec_compiled"]
+    COMPILED_IN_TESTS.update(out.get("bowlrec_compiled", {}))
 
 
 def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> None:
     if WARM_UP:
         terminalreporter.write_line(_summary())
     if COMPILED_IN_TESTS:
-        per = ", ".join(f"{n} in {w}" for w, n in sorted(COMPILED_IN_TESTS.items()))
+        per = ", ".join(f"{name} {n}" for name, n in sorted(COMPILED_IN_TESTS.items()))
         terminalreporter.write_line(
-            f"kernels compiled during the tests (missed by the warm-up): {per}"
+            f"kernels compiled during the tests (missed by the warm-up; every worker compiles "
+            f"its own): {per}"
         )
     if SELECTED or DESELECTED:
         ran = ", ".join(f"{t} {SELECTED[t]}" for t in TIERS if SELECTED[t])

@@ -24,6 +24,7 @@ httpx = pytest.importorskip("httpx")
 pytest.importorskip("fastapi")
 uvicorn = pytest.importorskip("uvicorn")
 
+from fastapi import HTTPException  # noqa: E402
 from fastapi.testclient import TestClient  # noqa: E402
 from helpers.processes import child_command, child_env  # noqa: E402
 from helpers.servers import ThreadServer, start_server  # noqa: E402
@@ -389,6 +390,11 @@ def test_every_route_needs_the_token_unless_the_docs_exempt_it(tmp_path: Path) -
     token: 401 exactly where :data:`ROUTE_AUTH` says so, and nothing but its "open" routes
     answers without one (the static and viewer files are asked for a file that is not there)."""
     app = create_app(tmp_path / "archive", TOKEN, warm_up=False)
+
+    def no_viewer_file(name: str) -> Path:  # the viewer's files are unpacked by a child process
+        raise HTTPException(404, f"no viewer file {name}")
+
+    app.state.bowlrec.viewer.path = no_viewer_file
     routes = _routes(app)
     assert len(routes) == len(set(routes))
     assert sorted(routes) == sorted(ROUTE_AUTH), "a route was added or removed: say in ROUTE_AUTH"
