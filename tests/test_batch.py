@@ -286,6 +286,7 @@ def test_failure_rows_and_table(tmp_path: Path) -> None:
     assert table[2]["outcome"] is None and table[1]["n_steps"] == result.rows[1]["n_steps"]
 
 
+@pytest.mark.process
 def test_rerun_is_idempotent_and_pool_equals_in_process(tmp_path: Path) -> None:
     job = grid_job(4, 5)
     pooled = run_job(job, Archive(tmp_path / "pool"), workers=2, chunk_size=3)
@@ -298,6 +299,7 @@ def test_rerun_is_idempotent_and_pool_equals_in_process(tmp_path: Path) -> None:
     assert len(Archive(tmp_path / "pool")) == 20
 
 
+@pytest.mark.process
 def test_local_cluster_equals_local_run(tmp_path: Path) -> None:
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'bowlrec[dask]')"
@@ -378,6 +380,7 @@ def _assert_consistent(archive_dir: Path, killed: bool = False) -> set[str]:
     return files
 
 
+@pytest.mark.fault
 def test_killed_batch_resumes_without_losing_runs(tmp_path: Path) -> None:
     # each chunk of 2 runs is sealed by a worker as one segment: the job lasts several seconds,
     # so the kill lands after some segments were sealed and before the last one
@@ -407,6 +410,7 @@ def test_killed_batch_resumes_without_losing_runs(tmp_path: Path) -> None:
     assert (report["temporaries_removed"], report["segments_registered"]) == (0, 0)
 
 
+@pytest.mark.process
 def test_ctrl_c_stops_cleanly_with_exit_130(tmp_path: Path) -> None:
     job = _write_job(tmp_path, 3000)  # seconds of work: Ctrl-C lands mid-batch
     archive = tmp_path / "a"

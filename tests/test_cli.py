@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from bowlrec.cli import app
@@ -88,6 +89,7 @@ def test_schema_command_writes_the_committed_schemas(tmp_path: Path) -> None:
         assert p.read_text() == (ROOT / "schemas" / p.name).read_text()
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_import_bowlrec_does_not_load_numba_or_the_cli_stack() -> None:
     code = (
         "import sys, bowlrec, bowlrec.spec; "

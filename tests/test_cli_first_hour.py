@@ -5,15 +5,16 @@ status, schemas, and the demo's next steps."""
 from __future__ import annotations
 
 import json
-import os
 import re
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
+from helpers.processes import run_bowlrec
 from typer.testing import CliRunner
 
 from bowlrec.api import simulate_into
@@ -24,23 +25,15 @@ runner = CliRunner()
 CASE16 = str(ROOT / "examples/paper/case16.json")
 
 
-def _bowlrec(
-    *args: str, env: dict[str, str] | None = None, **kw: object
-) -> subprocess.CompletedProcess[str]:
+def _bowlrec(*args: str, **kw: Any) -> subprocess.CompletedProcess[str]:
     """``bowlrec ARGS`` in a real process, its stdout a pipe (not a terminal)."""
-    return subprocess.run(
-        [sys.executable, "-m", "bowlrec.cli", *args],
-        capture_output=True,
-        text=True,
-        env={**os.environ, **(env or {})},
-        timeout=600,
-        **kw,  # type: ignore[call-overload]
-    )
+    return run_bowlrec(*args, **kw)
 
 
 # -- piped tables keep every character ------------------------------------------------------
 
 
+@pytest.mark.process  # stdout a pipe of a real process
 def test_piped_paper_table_keeps_every_number() -> None:
     """``bowlrec paper > out.txt`` in an 80-column (or narrower) terminal: every number of the
     Markdown table (the same rows) is in the printed table, none cut to an ellipsis."""
@@ -60,6 +53,7 @@ def test_piped_paper_table_keeps_every_number() -> None:
         assert cells in printed, f"row {cells} not printed whole"
 
 
+@pytest.mark.process  # stdout a pipe of a real process
 def test_piped_runs_list_keeps_long_names(tmp_path: Path) -> None:
     scene = json.loads(Path(CASE16).read_text())
     scene["name"] = "a-rather-long-scene-name-" + "x" * 60
@@ -252,17 +246,18 @@ def test_batch_quiet_with_failures_exits_1_and_prints_the_summary(tmp_path: Path
     job = _job_with_a_failure(tmp_path)
     out = tmp_path / "t.csv"
     args = ["batch", str(job), "--no-archive", "-j", "0", "--out", str(out), "--quiet"]
-    result = _bowlrec(*args)
-    assert result.returncode == 1, result.stderr
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1, result.stderr
     assert result.stdout == ""
     assert "2 runs: 1 simulated, 0 already archived, 1 failed" in result.stderr
     assert "first failure (ball.com_offset_m=" in result.stderr and "normal force" in result.stderr
     assert out.exists()
-    allowed = _bowlrec(*args, "--allow-failures")
-    assert allowed.returncode == 0, allowed.stderr
+    allowed = runner.invoke(app, [*args, "--allow-failures"])
+    assert allowed.exit_code == 0, allowed.stderr
     assert "1 failed" in allowed.stderr
 
 
+@pytest.mark.process  # SIGINT to a real process
 def test_batch_second_ctrl_c_stops_with_a_message(tmp_path: Path) -> None:
     """Ctrl-C asks the batch to stop after the runs in flight; a second one stops it at once,
     with one line saying what is kept and exit status 130 (no traceback, no silent exit)."""
@@ -304,6 +299,7 @@ def test_batch_second_ctrl_c_stops_with_a_message(tmp_path: Path) -> None:
     assert "rerun the same command" in err
 
 
+@pytest.mark.process  # SIGINT to a real process
 def test_ctrl_c_before_work_starts_is_one_line(tmp_path: Path) -> None:
     """A Ctrl-C that lands before a command has set up its own handling (here: while the
     kernel warms up in ``paper``) ends with one line and status 130."""
@@ -330,17 +326,20 @@ def test_ctrl_c_before_work_starts_is_one_line(tmp_path: Path) -> None:
 # -- schemas --------------------------------------------------------------------------------
 
 
-def test_schema_prints_instead_of_writing_here(tmp_path: Path) -> None:
-    result = _bowlrec("schema", cwd=tmp_path)
-    assert result.returncode == 0
+def test_schema_prints_instead_of_writing_here(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(app, ["schema"])
+    assert result.exit_code == 0
     assert json.loads(result.stdout)["title"] == "Scene"
     assert list(tmp_path.iterdir()) == []  # nothing written where it ran
-    job = _bowlrec("schema", "job", cwd=tmp_path)
+    job = runner.invoke(app, ["schema", "job"])
     assert "sweep" in json.loads(job.stdout)["properties"]
-    bowler = _bowlrec("schema", "bowler-scene", cwd=tmp_path)
+    bowler = runner.invoke(app, ["schema", "bowler-scene"])
     assert "layout" in json.loads(bowler.stdout)["properties"]
-    bad = _bowlrec("schema", "lanes", cwd=tmp_path)
-    assert bad.returncode == 2 and "bowler-scene" in bad.stderr and "job" in bad.stderr
+    bad = runner.invoke(app, ["schema", "lanes"])
+    assert bad.exit_code == 2 and "bowler-scene" in bad.stderr and "job" in bad.stderr
 
 
 def test_schema_out_writes_every_schema(tmp_path: Path) -> None:

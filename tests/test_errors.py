@@ -131,6 +131,7 @@ def test_the_front_ends_map_every_category() -> None:
     assert [_category(e) for e in SAMPLES] == list(CATEGORIES)
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_errors_module_loads_only_the_standard_library() -> None:
     code = (
         "import json, sys; before = set(sys.modules); import bowlrec.errors; "
@@ -172,6 +173,7 @@ def test_cli_exit_code_of_each_category(
     assert result.output == f"error: {err}\n"
 
 
+@pytest.mark.process  # serve binds a socket before the lock refuses it
 def test_cli_errors_from_real_commands(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     arch = str(Archive(tmp_path / "a").root)
     # input: an output file of unknown type (refused before simulating)
@@ -227,13 +229,11 @@ def test_service_status_of_each_category(
     assert (r.headers.get("retry-after") == "1") == isinstance(err, E.BusyError)
 
 
-def test_service_errors_from_real_requests(tmp_path: Path) -> None:
-    """A real server: an invalid filter, an unknown run and cancelling a finished job are
-    answered by their category's status."""
+def test_service_errors_from_real_requests(app_server: Any) -> None:
+    """Requests to the app (in process): an invalid filter, an unknown run and cancelling a
+    finished job are answered by their category's status."""
     pytest.importorskip("httpx")
-    from test_service import start_server
-
-    server = start_server(tmp_path / "archive")
+    server = app_server()
     try:
         with server.client() as client:
             bad = client.get("/runs", params={"where": "nope>1"})

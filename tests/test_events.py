@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from scene_builders import scene
+from helpers.scene_builders import scene
 
 from bowlrec import simulate
 

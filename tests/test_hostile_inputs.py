@@ -40,9 +40,9 @@ from concurrent.futures import Future, ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
-import hostile_child as hc
-import hostile_inputs as hi
 import pytest
+from helpers import hostile_child as hc
+from helpers import hostile_inputs as hi
 
 HERE = Path(__file__).resolve().parent
 
@@ -201,8 +201,6 @@ def sample_runs(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPat
 
 @pytest.fixture(scope="module")
 def full_runs(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory):
-    if "slow" not in (request.config.getoption("markexpr", "") or ""):
-        pytest.skip("the full hostile-input sweep: select it with -m slow")
     plan = {ch: full_ids(SOURCE[ch]) for ch in _selected_channels(request, "test_full")}
     runs = Channels(plan, tmp_path_factory.mktemp("hostile-full"))
     yield runs
@@ -329,6 +327,7 @@ def test_samples_are_stratified() -> None:
 # -- the default run: samples ------------------------------------------------------------------
 
 
+@pytest.mark.fault
 @pytest.mark.parametrize("channel", ["cli", "http", "subprocess", "server"])
 def test_sample(channel: str, sample_runs: Channels, tmp_path: Path) -> None:
     """A small fixed sample through each channel: ``cli`` CliRunner in a guarded worker
@@ -342,6 +341,7 @@ def test_sample(channel: str, sample_runs: Channels, tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.fault
 @pytest.mark.parametrize("channel", ["cli", "http", "subprocess", "server"])
 def test_full(channel: str, full_runs: Channels, tmp_path: Path) -> None:
     """Every mutation through each channel (the four of the sample tests above)."""

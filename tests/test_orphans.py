@@ -20,7 +20,6 @@ import os
 import random
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -32,10 +31,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers.processes import bowlrec_command
+from helpers.servers import start_server
 
-pytestmark = pytest.mark.skipif(
-    not sys.platform.startswith("linux"), reason="lists processes through /proc"
-)
+pytestmark = [
+    pytest.mark.fault,
+    pytest.mark.skipif(
+        not sys.platform.startswith("linux"), reason="lists processes through /proc"
+    ),
+]
 
 #: seconds the processes a killed command started may take to go
 GRACE_S = 5.0
@@ -199,12 +203,6 @@ def test_killed_batch_leaves_no_process_repeatedly(tmp_path: Path, round_: int) 
 # -- bowlrec serve ----------------------------------------------------------------------------
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def _request(url: str, body: Any = None) -> Any:
     data = None if body is None else json.dumps(body).encode()
     headers = {"content-type": "application/json"}
@@ -214,30 +212,29 @@ def _request(url: str, body: Any = None) -> Any:
 
 @contextlib.contextmanager
 def server(tmp_path: Path) -> Iterator[tuple[subprocess.Popen[bytes], str]]:
-    """``bowlrec serve --job-workers 2`` answering at the URL given."""
+    """``bowlrec serve --job-workers 2`` (the entry point's module, in a session of its own)
+    answering at the URL given; afterwards whatever of its session is still alive is killed."""
     pytest.importorskip("fastapi")
     pytest.importorskip("uvicorn")
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}  # loopback, no token
-    for _ in range(3):  # a free port can be taken between the probe and the bind: retry
-        port = _free_port()
-        url = f"http://127.0.0.1:{port}"
-        cmd = [sys.executable, "-m", "bowlrec.cli", "serve", "--archive"]
-        cmd += [str(tmp_path / "archive"), "--port", str(port), "--job-workers", "2"]
-        with command([*cmd, "--log-level", "warning"], tmp_path, env) as proc:
-            deadline = time.monotonic() + 60
-            while proc.poll() is None and time.monotonic() < deadline:
-                try:
-                    _request(f"{url}/health")
-                    break
-                except (urllib.error.URLError, ConnectionError, TimeoutError):
-                    time.sleep(0.05)
-            if proc.poll() is None:
-                yield proc, url
-                return
-            err = (tmp_path / "stderr.log").read_text(errors="replace")
-            if "address already in use" not in err.lower():
-                raise AssertionError(f"the server did not start:\n{err}")
-    raise AssertionError("no free port")
+    srv = start_server(
+        tmp_path / "archive",
+        None,
+        "--job-workers",
+        "2",
+        command=bowlrec_command("serve"),
+        home=tmp_path / "home",
+        start_new_session=True,
+        cwd=tmp_path,
+    )
+    try:
+        yield srv.proc, srv.url
+    finally:
+        for p in session(srv.proc.pid):
+            with contextlib.suppress(OSError):
+                os.kill(p.pid, signal.SIGKILL)
+        with contextlib.suppress(OSError):
+            os.kill(srv.proc.pid, signal.SIGKILL)
+        srv.proc.wait(10)
 
 
 def run_server_and_kill(tmp_path: Path, busy: bool) -> None:

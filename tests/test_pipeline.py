@@ -565,7 +565,7 @@ def _check_archived(job: JobSpec, result: BatchResult, archive: Archive) -> None
         assert stored.scene == prep.scene
 
 
-@pytest.mark.parametrize("workers", [0, 2])
+@pytest.mark.parametrize("workers", [0, pytest.param(2, marks=pytest.mark.process)])
 def test_engine_archives_every_ok_run(tmp_path: Path, workers: int) -> None:
     archive = Archive(tmp_path / "a")
     jobs = [mixed_job(), points_job()]
@@ -904,6 +904,7 @@ def test_cli_batch_no_archive_writes_exactly_the_table(
 # -- 7. Dask worker writes ------------------------------------------------------------------
 
 
+@pytest.mark.process  # a Dask cluster of processes
 def test_dask_worker_writes_yes_no_auto(tmp_path: Path) -> None:
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'bowlrec[dask]')"

@@ -6,8 +6,8 @@ must finish it with no run lost, none simulated twice and no duplicate copy.
 The job: a random sweep of ``N_RUNS`` summary-only runs over ``delivery.speed_mps`` and
 ``delivery.omega_radps[1]`` of the paper's scene 16 (``options.rtol`` 2e-4: the integrator),
 in chunks of ``CHUNK`` runs (``bowlrec batch --chunk-size``; the service's engine default is cut
-to ``SERVICE_CHUNK`` by tests/pipeline_fault_child.py), so that a job seals dozens of segments
-and a kill lands between or inside segment writes.
+to ``SERVICE_CHUNK`` by tests/helpers/pipeline_fault_child.py), so that a job seals dozens of
+segments and a kill lands between or inside segment writes.
 
 Kill kinds (one episode = one fresh archive and job, one or two kills, then a rerun to the end):
 
@@ -49,7 +49,7 @@ asserted at the end, so that one campaign checks every kind.
 
 The campaign seed is printed with a table of the kills (run with ``-s`` to see it); set
 ``BOWLREC_FAULT_SEED`` to replay one. The CI variant makes 8 kills (two per kind); the ``slow``
-variant (``-m slow``) makes 24 or more and loads every listed run after every kill.
+variant (``--tier slow``) makes 24 or more and loads every listed run after every kill.
 
 ``test_sigkill_of_the_parent_alone_takes_its_pool_with_it`` kills the batch parent, or a server
 with a job pool, alone (not its process group) and checks that its pool does not outlive it.
@@ -65,7 +65,6 @@ import math
 import os
 import random
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -76,17 +75,20 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers.processes import child_env
+from helpers.servers import start_server
 
 from bowlrec.archive import Archive, SegmentFile
 from bowlrec.batch import load_job, prepare_runs
 
-pytestmark = pytest.mark.skipif(
-    not Path("/proc/self/task").is_dir(), reason="finds worker processes in /proc (Linux)"
-)
+pytestmark = [
+    pytest.mark.fault,
+    pytest.mark.skipif(
+        not Path("/proc/self/task").is_dir(), reason="finds worker processes in /proc (Linux)"
+    ),
+]
 
 ROOT = Path(__file__).resolve().parents[1]
-HERE = Path(__file__).parent
-SERVICE_CHILD = HERE / "pipeline_fault_child.py"
 
 #: runs per job; runs per chunk of ``bowlrec batch``; runs per chunk of a service job
 N_RUNS = 3000
@@ -99,12 +101,6 @@ MODES = ("part", "sealed", "random")
 GONE_S = 15.0
 #: seconds a batch may take (a few are needed; more means it hangs)
 RUN_TIMEOUT_S = 120.0
-
-
-def require_slow_selected(request: pytest.FixtureRequest) -> None:
-    """Heavy variants run only when asked for by marker (``-m slow``); a plain run skips them."""
-    if "slow" not in (request.config.getoption("markexpr", "") or ""):
-        pytest.skip("heavy fault variant: select it with -m slow")
 
 
 # -- the job -------------------------------------------------------------------------------------
@@ -208,10 +204,7 @@ def _wait_gone(pids: list[int], timeout: float = GONE_S) -> list[int]:
 
 
 def _clean_env() -> dict[str, str]:
-    env = dict(os.environ)
-    for key in ("BOWLREC_TOKEN", "BOWLREC_SCHEDULER"):
-        env.pop(key, None)
-    return env
+    return child_env()
 
 
 # -- the archive on disk -------------------------------------------------------------------------
@@ -681,12 +674,6 @@ def _rerun_to_end(
 # -- service episodes ------------------------------------------------------------------------------
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 @dataclass
 class Service:
     proc: subprocess.Popen[bytes]
@@ -715,35 +702,24 @@ class Service:
 
 
 def start_service(archive: Path, workers: int, log: Path) -> Service:
-    httpx = pytest.importorskip("httpx")
+    """``bowlrec serve --job-workers WORKERS`` whose jobs run in chunks of SERVICE_CHUNK
+    (tests/helpers/pipeline_fault_child.py), in a session of its own; its HOME and stderr log
+    in ``log``'s folder."""
+    pytest.importorskip("httpx")
     pytest.importorskip("fastapi")
     pytest.importorskip("uvicorn")
-    for _ in range(3):  # a free port can be taken between the probe and the bind: retry
-        port = _free_port()
-        cmd = [sys.executable, str(SERVICE_CHILD), str(SERVICE_CHUNK), "--archive", str(archive)]
-        cmd += ["--port", str(port), "--log-level", "warning", "--job-workers", str(workers)]
-        with open(log, "ab") as fh:
-            proc = subprocess.Popen(
-                cmd,
-                stdout=subprocess.DEVNULL,
-                stderr=fh,
-                start_new_session=True,
-                env=_clean_env(),
-            )
-        url = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            try:
-                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
-                    return Service(proc, url, workers)
-            except httpx.TransportError:
-                time.sleep(0.05)
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait(10)
-        if "address already in use" not in log.read_text(errors="replace").lower():
-            raise RuntimeError(f"server did not start:\n{log.read_text(errors='replace')}")
-    raise RuntimeError("no free port")
+    server = start_server(
+        archive,
+        None,
+        "--job-workers",
+        str(workers),
+        child="pipeline_fault_child",
+        child_args=(str(SERVICE_CHUNK),),
+        home=log.parent / f"{log.stem}-home",
+        start_new_session=True,
+        start_timeout_s=60,
+    )
+    return Service(server.proc, server.url, workers)
 
 
 @dataclass
@@ -927,9 +903,8 @@ def test_sigkill_campaign(tmp_path: Path) -> None:
 
 
 @pytest.mark.slow
-def test_sigkill_campaign_heavy(tmp_path: Path, request: pytest.FixtureRequest) -> None:
+def test_sigkill_campaign_heavy(tmp_path: Path) -> None:
     """Six kills per kind (24), every listed run loaded after every kill."""
-    require_slow_selected(request)
     c = run_campaign(
         tmp_path, {"parent": 6, "worker": 6, "dask": 6, "service": 6}, 2, full_load=True
     )

@@ -260,6 +260,7 @@ def test_readme_has_runnable_blocks() -> None:
     assert len(README.read_text(encoding="utf-8").splitlines()) <= MAX_README_LINES
 
 
+@pytest.mark.process
 @pytest.mark.parametrize("block", BLOCKS, ids=_block_id)
 def test_readme_block_runs(block: Block, tour: Tour) -> None:
     if block.skip is not None:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scene_builders import scene as scene_dict
+from helpers.scene_builders import scene as scene_dict
 
 from bowlrec.api import simulate_into
 from bowlrec.archive import Archive

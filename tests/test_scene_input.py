@@ -107,6 +107,7 @@ def test_batch_takes_a_spec_sheet_in_a_bowler_scene_as_the_cli_and_service_do(
         run_job(physical, archive, workers=0)
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_batch_and_scene_input_load_no_heavy_module() -> None:
     """Importing the batch package, simulate_many and the scene parser loads neither numba,
     h5py, dask nor pyarrow: they load when something runs."""

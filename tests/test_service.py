@@ -1,20 +1,15 @@
-"""The HTTP service against a real uvicorn server (``bowlrec serve`` in a subprocess on
-127.0.0.1), talked to with httpx: the whole flow, concurrent clients, kill -9 mid-job and
-restart, 422/404 paths and token auth."""
+"""The HTTP service, talked to with httpx: the whole flow, 422/404 paths and token auth against
+the app in process (``helpers.servers.AppServer``); concurrent clients, kill -9 mid-job and
+restart, the archive lock and memory against real ``bowlrec serve`` processes on 127.0.0.1."""
 
 from __future__ import annotations
 
 import json
-import os
-import signal
-import socket
 import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,103 +20,24 @@ httpx = pytest.importorskip("httpx")
 pytest.importorskip("fastapi")
 pytest.importorskip("uvicorn")
 
+from helpers.processes import child_command, child_env  # noqa: E402
+from helpers.scene_builders import sampled_scene, summary_scene  # noqa: E402
+from helpers.servers import AppServer, Server, start_server  # noqa: E402
+
 from bowlrec.archive import Archive  # noqa: E402
 from bowlrec.archive.index import INDEX_COLUMNS  # noqa: E402
 
 HERE = Path(__file__).parent
-CHILD = HERE / "service_child.py"
-
-
-def summary_scene(i: int, name: str = "svc") -> dict[str, Any]:
-    """A distinct summary-only scene per ``i`` (closed-form solver: ~1 ms to simulate)."""
-    return {
-        "name": name,
-        "delivery": {"speed_mps": round(6.0 + 0.001 * i, 6)},
-        "options": {"record": "summary"},
-    }
-
-
-def sampled_scene() -> dict[str, Any]:
-    """A spinning delivery recorded every 10 ms (the integrator), replayable as MCAP/RRD."""
-    return {
-        "name": "sampled",
-        "delivery": {"speed_mps": 8.0, "omega_radps": [-16.62, 23.74, 7.765]},
-        "options": {"record": "rate", "record_dt_s": 0.01},
-    }
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-@dataclass
-class Server:
-    """A ``bowlrec serve`` subprocess and an httpx client pointed at it."""
-
-    proc: subprocess.Popen[bytes]
-    url: str
-    archive: Path
-    headers: dict[str, str]
-
-    def client(self, **kw: Any) -> httpx.Client:
-        return httpx.Client(base_url=self.url, headers=self.headers, timeout=60.0, **kw)
-
-    def kill(self) -> None:
-        if self.proc.poll() is None:
-            os.kill(self.proc.pid, signal.SIGKILL)
-        self.proc.wait(10)
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)  # uvicorn's graceful shutdown
-            try:
-                self.proc.wait(20)
-            except subprocess.TimeoutExpired:
-                self.kill()
-
-
-def start_server(archive: Path, token: str | None = None, *extra: str) -> Server:
-    env = dict(os.environ)
-    env.pop("BOWLREC_TOKEN", None)
-    if token is not None:
-        env["BOWLREC_TOKEN"] = token
-    for _ in range(3):  # a free port can be taken between the probe and the bind: retry
-        port = _free_port()
-        cmd = [sys.executable, str(CHILD), "--archive", str(archive), "--port", str(port)]
-        proc = subprocess.Popen(
-            [*cmd, "--log-level", "warning", *extra],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-        )
-        url = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            try:
-                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
-                    headers = {} if token is None else {"Authorization": f"Bearer {token}"}
-                    return Server(proc, url, archive, headers)
-            except httpx.TransportError:
-                time.sleep(0.05)
-        if proc.poll() is None:
-            proc.kill()
-        err = proc.communicate(timeout=10)[1].decode(errors="replace")
-        if "address already in use" not in err.lower():
-            raise RuntimeError(f"server did not start:\n{err}")
-    raise RuntimeError("no free port")
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = start_server(tmp_path_factory.mktemp("svc") / "archive")
-    yield srv
-    srv.stop()
+def server(module_app_server: Any) -> AppServer:
+    """The service in process: the API's answers do not depend on the transport."""
+    return module_app_server()
 
 
 @pytest.fixture(scope="module")
-def client(server: Server) -> Iterator[httpx.Client]:
+def client(server: AppServer) -> Iterator[httpx.Client]:
     with server.client() as c:
         yield c
 
@@ -392,6 +308,7 @@ def test_health_and_openapi_docs(client: httpx.Client) -> None:
 # -- concurrency ---------------------------------------------------------------------------------
 
 
+@pytest.mark.process
 def test_concurrent_clients_every_run_accounted_for(tmp_path: Path) -> None:
     """16 clients x 20 submissions (60 distinct scenes, each submitted ~5 times, concurrently),
     each followed by a read of the run; then the archive holds exactly the distinct runs."""
@@ -438,6 +355,7 @@ def test_concurrent_clients_every_run_accounted_for(tmp_path: Path) -> None:
 # -- kill -9 mid-job and restart -----------------------------------------------------------------
 
 
+@pytest.mark.fault
 def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Path) -> None:
     archive_dir = tmp_path / "archive"
     srv = start_server(archive_dir)
@@ -481,11 +399,15 @@ def test_kill_mid_job_then_restart_reports_interrupted_and_resumes(tmp_path: Pat
     assert repaired["damaged_runs"] == [] and len(archive) == 2000
 
 
-def test_second_server_on_the_same_archive_is_refused(server: Server) -> None:
+@pytest.mark.process
+def test_second_server_on_the_same_archive_is_refused(app_server: Any) -> None:
+    """A ``bowlrec serve`` process on an archive whose jobs lock this process's app holds."""
+    first = app_server()
     out = subprocess.run(
-        [sys.executable, str(CHILD), "--archive", str(server.archive), "--port", "0"],
+        child_command("service_child", "--archive", str(first.archive), "--port", "0"),
         capture_output=True,
         text=True,
+        env=child_env(),
         timeout=60,
     )
     assert out.returncode == 2 and "another bowlrec server" in out.stderr
@@ -494,10 +416,10 @@ def test_second_server_on_the_same_archive_is_refused(server: Server) -> None:
 # -- auth and binding ----------------------------------------------------------------------------
 
 
-def test_token_is_required_when_set(tmp_path: Path) -> None:
-    srv = start_server(tmp_path / "archive", token="s3cret-token")
+def test_token_is_required_when_set(app_server: Any) -> None:
+    srv = app_server(token="s3cret-token")
     try:
-        with httpx.Client(base_url=srv.url, timeout=30) as anon:
+        with srv.client(auth=False) as anon:
             assert anon.get("/health").json()["auth"] is True  # open
             assert anon.get("/docs").status_code == 200  # open
             r = anon.get("/runs")
@@ -513,10 +435,13 @@ def test_token_is_required_when_set(tmp_path: Path) -> None:
 
 
 def test_non_loopback_host_needs_a_token_or_insecure(tmp_path: Path) -> None:
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    cmd = [sys.executable, str(CHILD), "--archive", str(tmp_path / "a"), "--host", "0.0.0.0"]
-    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=60)
-    assert out.returncode == 2 and "refusing to serve 0.0.0.0 without a token" in out.stderr
+    from typer.testing import CliRunner
+
+    from bowlrec.cli import app
+
+    args = ["serve", "--archive", str(tmp_path / "a"), "--host", "0.0.0.0"]
+    out = CliRunner().invoke(app, args)
+    assert out.exit_code == 2 and "refusing to serve 0.0.0.0 without a token" in out.output
     assert not (tmp_path / "a").exists()  # refused before touching anything
 
 
@@ -535,12 +460,16 @@ def _peak_mb(pid: int) -> float:
     raise AssertionError(f"no VmHWM for {pid}")
 
 
-def test_the_inputs_that_exhausted_the_machine_are_refused_in_bounded_memory(
-    server: Server, client: httpx.Client
-) -> None:
+def test_the_inputs_that_exhausted_the_machine_are_refused_in_bounded_memory(serve: Any) -> None:
     """The inputs a hostile-input campaign found (each took the server past 1-3 GB) are each
     refused with a field-named 4xx, or accepted as a background job and cancelled; the server's
     peak memory grows by less than 100 MB over all of them."""
+    server: Server = serve()
+    with server.client() as client:
+        _refused_in_bounded_memory(server, client)
+
+
+def _refused_in_bounded_memory(server: Server, client: httpx.Client) -> None:
     client.post("/runs", json={"options": {"record": "summary"}})  # kernels loaded
     before = _peak_mb(server.proc.pid)
     for dt in (1e-300, 1e-8, 1e-6):

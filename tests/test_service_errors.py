@@ -1,7 +1,7 @@
-"""What a new user meets first, against real ``bowlrec serve`` processes on 127.0.0.1:
-malformed requests answered with one ``where: message`` line (never FastAPI's list), an
-address ``serve`` cannot listen on reported in one ``error:`` line before anything is
-served or created, and Ctrl-C (once or twice) stopping the server without a traceback."""
+"""What a new user meets first: malformed requests answered with one ``where: message`` line
+(never FastAPI's list; the app in process), and, against real ``bowlrec serve`` processes on
+127.0.0.1, an address ``serve`` cannot listen on reported in one ``error:`` line before anything
+is served or created, and Ctrl-C (once or twice) stopping the server without a traceback."""
 
 from __future__ import annotations
 
@@ -15,7 +15,6 @@ import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,18 +24,17 @@ httpx = pytest.importorskip("httpx")
 pytest.importorskip("fastapi")
 pytest.importorskip("uvicorn")
 
-from test_service import Server, start_server, summary_scene  # noqa: E402
+from helpers.processes import child_command, child_env  # noqa: E402
+from helpers.scene_builders import summary_scene  # noqa: E402
+from helpers.servers import AppServer, start_server  # noqa: E402
 
-HERE = Path(__file__).parent
-CHILD = HERE / "service_child.py"
 JSON = {"content-type": "application/json"}
 
 
 @pytest.fixture(scope="module")
-def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Server]:
-    srv = start_server(tmp_path_factory.mktemp("errors") / "archive")
-    yield srv
-    srv.stop()
+def server(module_app_server: Any) -> AppServer:
+    """The service in process: the answers do not depend on the transport."""
+    return module_app_server()
 
 
 # -- malformed requests --------------------------------------------------------------------------
@@ -99,7 +97,7 @@ def _detail(r: Any) -> str:
 
 
 @pytest.mark.parametrize("path", BODY_ROUTES)
-def test_malformed_bodies_get_one_line_naming_the_body(server: Server, path: str) -> None:
+def test_malformed_bodies_get_one_line_naming_the_body(server: AppServer, path: str) -> None:
     with server.client() as client:
         for body, headers, expected in MALFORMED_BODIES:
             if path == "/session" and body == b"null":
@@ -129,14 +127,14 @@ def test_malformed_bodies_get_one_line_naming_the_body(server: Server, path: str
 
 
 @pytest.mark.parametrize("path", ["/runs", "/jobs", "/balls", "/balls/import"])
-def test_an_empty_body_is_named(server: Server, path: str) -> None:
+def test_an_empty_body_is_named(server: AppServer, path: str) -> None:
     with server.client() as client:
         for headers in (JSON, {}):
             r = client.post(path, content=b"", headers=headers)
             assert r.status_code == 422 and _detail(r) == EMPTY, (path, headers, r.text)
 
 
-def test_the_session_body_is_optional_but_checked(server: Server) -> None:
+def test_the_session_body_is_optional_but_checked(server: AppServer) -> None:
     with server.client() as client:
         assert client.post("/session", content=b"", headers=JSON).status_code == 200
         r = client.post("/session", json={"token": 5})
@@ -144,7 +142,7 @@ def test_the_session_body_is_optional_but_checked(server: Server) -> None:
         assert _detail(r) == "token: Input should be a valid string (got 5)"
 
 
-def test_a_field_of_the_body_is_named_by_its_path(server: Server) -> None:
+def test_a_field_of_the_body_is_named_by_its_path(server: AppServer) -> None:
     with server.client() as client:
         r = client.post("/balls", json={"name": 5, "spec": {}})
         assert r.status_code == 422
@@ -199,7 +197,7 @@ BAD_PARAMETERS = [
 ]
 
 
-def test_bad_parameters_get_one_line_naming_the_parameter(server: Server) -> None:
+def test_bad_parameters_get_one_line_naming_the_parameter(server: AppServer) -> None:
     with server.client() as client:
         for path, expected in BAD_PARAMETERS:
             r = client.get(path)
@@ -218,7 +216,7 @@ def test_bad_parameters_get_one_line_naming_the_parameter(server: Server) -> Non
         assert client.get("/runs?limit=9223372036854775807").status_code == 200
 
 
-def test_unknown_paths_and_methods_are_named(server: Server) -> None:
+def test_unknown_paths_and_methods_are_named(server: AppServer) -> None:
     with server.client() as client:
         r = client.get("/run")
         assert r.status_code == 404
@@ -228,7 +226,7 @@ def test_unknown_paths_and_methods_are_named(server: Server) -> None:
         assert _detail(r) == "method PUT is not allowed on /runs (see /docs)"
 
 
-def test_the_openapi_document_describes_no_error_list(server: Server) -> None:
+def test_the_openapi_document_describes_no_error_list(server: AppServer) -> None:
     with server.client() as client:
         doc = client.get("/openapi.json").json()
     assert "HTTPValidationError" not in json.dumps(doc)
@@ -262,9 +260,8 @@ def test_request_error_text_without_a_server() -> None:
 
 
 def _serve(tmp_path: Path, *args: str) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    cmd = [sys.executable, str(CHILD), "--archive", str(tmp_path / "archive"), *args]
-    return subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
+    cmd = child_command("service_child", "--archive", str(tmp_path / "archive"), *args)
+    return subprocess.run(cmd, capture_output=True, text=True, env=child_env(), timeout=120)
 
 
 def _one_error_line(out: subprocess.CompletedProcess[str], tmp_path: Path) -> str:
@@ -280,6 +277,7 @@ def _one_error_line(out: subprocess.CompletedProcess[str], tmp_path: Path) -> st
     return lines[0]
 
 
+@pytest.mark.process
 def test_a_port_in_use_is_one_line(tmp_path: Path) -> None:
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
@@ -292,6 +290,7 @@ def test_a_port_in_use_is_one_line(tmp_path: Path) -> None:
     )
 
 
+@pytest.mark.process
 def test_an_address_not_of_this_machine_is_one_line(tmp_path: Path) -> None:
     out = _serve(tmp_path, "--host", "192.0.2.1", "--insecure", "--port", "8000")
     assert _one_error_line(out, tmp_path) == (
@@ -300,11 +299,13 @@ def test_an_address_not_of_this_machine_is_one_line(tmp_path: Path) -> None:
     )
 
 
+@pytest.mark.process
 def test_an_ipv6_address_is_shown_in_brackets(tmp_path: Path) -> None:
     out = _serve(tmp_path, "--host", "2001:db8::1", "--insecure", "--port", "8000")
     assert _one_error_line(out, tmp_path).startswith("error: cannot listen on [2001:db8::1]:8000: ")
 
 
+@pytest.mark.process
 def test_an_unresolvable_host_name_is_one_line(tmp_path: Path) -> None:
     out = _serve(tmp_path, "--host", "no-such-host.invalid", "--insecure", "--port", "8000")
     line = _one_error_line(out, tmp_path)
@@ -321,6 +322,7 @@ def _unprivileged_port_start() -> int:
         return 1024
 
 
+@pytest.mark.process
 @pytest.mark.skipif(_unprivileged_port_start() <= 80, reason="this kernel lets anyone bind 80")
 def test_a_privileged_port_is_one_line(tmp_path: Path) -> None:
     """Port 80 without the right to bind it: as a user, or as root without the capability
@@ -332,10 +334,9 @@ def test_a_privileged_port_is_one_line(tmp_path: Path) -> None:
             pytest.skip("root may bind port 80, and setpriv is not installed to prevent it")
         drop = "-net_bind_service"
         prefix = [setpriv, f"--bounding-set={drop}", f"--inh-caps={drop}"]
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    cmd = [*prefix, sys.executable, str(CHILD), "--archive", str(tmp_path / "archive")]
+    cmd = [*prefix, *child_command("service_child", "--archive", str(tmp_path / "archive"))]
     out = subprocess.run(
-        [*cmd, "--port", "80"], capture_output=True, text=True, env=env, timeout=120
+        [*cmd, "--port", "80"], capture_output=True, text=True, env=child_env(), timeout=120
     )
     if prefix and out.stderr.startswith("setpriv:"):
         pytest.skip(f"setpriv cannot drop the capability here: {out.stderr.strip()}")
@@ -364,33 +365,16 @@ def test_listen_error_reasons() -> None:
 def _serve_in_a_session(archive: Path, *extra: str) -> tuple[subprocess.Popen[bytes], str]:
     """``bowlrec serve`` (log level info) in a process group of its own, as a terminal runs
     it: Ctrl-C is SIGINT to the whole group (job worker processes included)."""
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    for _ in range(3):  # a free port can be taken between the probe and the bind: retry
-        with socket.socket() as probe:
-            probe.bind(("127.0.0.1", 0))
-            port = int(probe.getsockname()[1])
-        cmd = [sys.executable, str(CHILD), "--archive", str(archive), "--port", str(port)]
-        proc = subprocess.Popen(
-            [*cmd, *extra],
-            env=env,
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.PIPE,
-            start_new_session=True,
-        )
-        url = f"http://127.0.0.1:{port}"
-        deadline = time.monotonic() + 300  # the first start may compile the kernels
-        while time.monotonic() < deadline and proc.poll() is None:
-            try:
-                if httpx.get(f"{url}/health", timeout=1.0).status_code == 200:
-                    return proc, url
-            except httpx.TransportError:
-                time.sleep(0.05)
-        if proc.poll() is None:
-            os.killpg(proc.pid, signal.SIGKILL)
-        err = proc.communicate(timeout=10)[1].decode(errors="replace")
-        if "address already in use" not in err:
-            raise RuntimeError(f"server did not start:\n{err}")
-    raise RuntimeError("no free port")
+    server = start_server(
+        archive,
+        None,
+        *extra,
+        log_level=None,
+        capture_stderr=True,
+        start_new_session=True,
+        start_timeout_s=300,  # the first start may compile the kernels
+    )
+    return server.proc, server.url
 
 
 def _start_long_job(url: str) -> str:
@@ -430,6 +414,7 @@ def _job_record(archive: Path, job_id: str) -> dict[str, Any]:
     return record
 
 
+@pytest.mark.process
 @pytest.mark.parametrize(
     ("times", "gap_s", "workers"),
     [(1, 0.0, "0"), (2, 0.05, "0"), (2, 0.5, "0"), (3, 0.2, "2")],
@@ -449,6 +434,7 @@ def test_ctrl_c_during_a_job_stops_cleanly(
     assert record["status"] == "interrupted" and 5 <= record["done"] < 20_000, record
 
 
+@pytest.mark.process
 def test_a_second_ctrl_c_cuts_off_a_request_in_progress_without_a_traceback(
     tmp_path: Path,
 ) -> None:

@@ -8,12 +8,10 @@ from __future__ import annotations
 
 import http.client
 import json
-import os
 import re
 import select
 import socket
 import subprocess
-import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -26,49 +24,21 @@ httpx = pytest.importorskip("httpx")
 pytest.importorskip("fastapi")
 uvicorn = pytest.importorskip("uvicorn")
 
+from fastapi import HTTPException  # noqa: E402
 from fastapi.testclient import TestClient  # noqa: E402
-from test_service import start_server  # noqa: E402
+from helpers.processes import child_command, child_env  # noqa: E402
+from helpers.servers import ThreadServer, start_server  # noqa: E402
 
 from bowlrec.archive import Archive  # noqa: E402
 from bowlrec.errors import ArchiveWriteError, RunDamagedError  # noqa: E402
 from bowlrec.service.app import create_app  # noqa: E402
 from bowlrec.service.redact import Redactor  # noqa: E402
 
-HERE = Path(__file__).parent
-CHILD = HERE / "service_child.py"
 TOKEN = "t0ken-" + "x" * 40
 BALL = {"mass_kg": 7.0, "radius_m": 0.1085, "rg_m": [0.068, 0.07, 0.07]}
 
 
 # -- servers -------------------------------------------------------------------------------------
-
-
-class ThreadServer:
-    """uvicorn serving ``app`` on 127.0.0.1 (an ephemeral port) in a thread of this process."""
-
-    def __init__(self, app: Any) -> None:
-        self.sock = socket.socket()
-        self.sock.bind(("127.0.0.1", 0))
-        self.port = int(self.sock.getsockname()[1])
-        self.url = f"http://127.0.0.1:{self.port}"
-        config = uvicorn.Config(app, host="127.0.0.1", port=self.port, log_level="warning")
-        self.server = uvicorn.Server(config)
-        self.thread = threading.Thread(
-            target=self.server.run, kwargs={"sockets": [self.sock]}, daemon=True
-        )
-
-    def __enter__(self) -> ThreadServer:
-        self.thread.start()
-        deadline = time.monotonic() + 30
-        while not self.server.started:
-            assert time.monotonic() < deadline and self.thread.is_alive(), "server did not start"
-            time.sleep(0.02)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.server.should_exit = True
-        self.thread.join(60)
-        self.sock.close()
 
 
 def start_cli_server(archive: Path, *extra: str) -> tuple[subprocess.Popen[bytes], str]:
@@ -109,6 +79,7 @@ def _job_body(n: int) -> dict[str, Any]:
 # -- the body limit ------------------------------------------------------------------------------
 
 
+@pytest.mark.process
 def test_a_chunked_body_over_the_limit_gets_413_without_being_read(tmp_path: Path) -> None:
     """``serve --max-body-mb 0.25``: a chunked POST (no Content-Length) of whitespace that would
     go on for 64 MiB is answered 413 once 256 KiB have arrived; the client sees the answer
@@ -153,6 +124,7 @@ def test_a_chunked_body_over_the_limit_gets_413_without_being_read(tmp_path: Pat
         stop(proc)
 
 
+@pytest.mark.process
 def test_a_100000_run_job_fits_the_default_limit_and_cross_site_cancel_is_refused(
     tmp_path: Path,
 ) -> None:
@@ -418,6 +390,11 @@ def test_every_route_needs_the_token_unless_the_docs_exempt_it(tmp_path: Path) -
     token: 401 exactly where :data:`ROUTE_AUTH` says so, and nothing but its "open" routes
     answers without one (the static and viewer files are asked for a file that is not there)."""
     app = create_app(tmp_path / "archive", TOKEN, warm_up=False)
+
+    def no_viewer_file(name: str) -> Path:  # the viewer's files are unpacked by a child process
+        raise HTTPException(404, f"no viewer file {name}")
+
+    app.state.bowlrec.viewer.path = no_viewer_file
     routes = _routes(app)
     assert len(routes) == len(set(routes))
     assert sorted(routes) == sorted(ROUTE_AUTH), "a route was added or removed: say in ROUTE_AUTH"
@@ -459,14 +436,16 @@ def test_closing_a_session_needs_the_session_or_the_token(token_app: TestClient)
 
 
 def _serve(args: list[str], token: str | None) -> subprocess.CompletedProcess[str]:
-    env = {k: v for k, v in os.environ.items() if k != "BOWLREC_TOKEN"}
-    if token is not None:
-        env["BOWLREC_TOKEN"] = token
     return subprocess.run(
-        [sys.executable, str(CHILD), *args], capture_output=True, text=True, env=env, timeout=60
+        child_command("service_child", *args),
+        capture_output=True,
+        text=True,
+        env=child_env(BOWLREC_TOKEN=token),
+        timeout=60,
     )
 
 
+@pytest.mark.process
 def test_serve_refuses_a_short_token_on_a_non_loopback_host(tmp_path: Path) -> None:
     archive = tmp_path / "a"
     out = _serve(["--archive", str(archive), "--host", "0.0.0.0"], token="short-token")
@@ -477,6 +456,7 @@ def test_serve_refuses_a_short_token_on_a_non_loopback_host(tmp_path: Path) -> N
     assert not archive.exists()  # refused before touching anything
 
 
+@pytest.mark.process
 def test_serve_flags_reach_the_app(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """``--allowed-host`` (repeatable), ``--max-body-mb`` and the bound IP, as ``serve`` passes
     them to the app (uvicorn's run replaced; the sockets were bound before "serving on")."""
@@ -515,6 +495,7 @@ def test_serve_flags_reach_the_app(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert bad.exit_code == 2 and "not a host name" in bad.output
 
 
+@pytest.mark.process
 def test_serve_reports_a_port_in_use_in_one_line(tmp_path: Path) -> None:
     with socket.socket() as busy:
         busy.bind(("127.0.0.1", 0))
@@ -698,7 +679,6 @@ def test_bad_input_gets_4xx_never_5xx(open_app: TestClient) -> None:
 def test_recorded_runs_wait_for_a_slot_and_too_many_waiting_get_503() -> None:
     """Recorded POST /runs simulate at most one per slot (a core) at once; at most 4 per slot
     wait, and one more is refused at once (503), so waiting never takes every worker thread."""
-    import threading
     import time
 
     from bowlrec.errors import ServerBusyError

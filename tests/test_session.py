@@ -154,43 +154,36 @@ def test_the_example_session_loads_its_bowler_files() -> None:
 
 
 def test_cli_writes_the_table_and_figures(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from bowlrec.cli import app
+
     session = tmp_path / "s.json"
     data = _spec().model_dump(mode="json")
     session.write_text(json.dumps(data))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "bowlrec.cli", "session", str(session), "-a", str(tmp_path / "a")]
-    done = subprocess.run(
-        [*cmd, "-o", str(out), "--max-shots", "5", "--quiet"],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
-    assert done.returncode == 0, done.stderr
+    cmd = ["session", str(session), "-a", str(tmp_path / "a")]
+    done = CliRunner().invoke(app, [*cmd, "-o", str(out), "--max-shots", "5", "--quiet"])
+    assert done.exit_code == 0, done.stderr
     assert "5 shots (5 simulated, 0 read back" in done.stderr
     lines = (out / "shots.csv").read_text().splitlines()
     assert lines[0].startswith("shot,game,frame,ball,bowler,run_id,outcome,pocket,entry_board")
     assert len(lines) == 6
     for name in ("oil.svg", "drift.svg"):
         assert ET.parse(out / name).getroot().tag.endswith("svg")
-    again = subprocess.run(
-        [*cmd, "-o", str(out), "--max-shots", "5", "--json"],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    again = CliRunner().invoke(app, [*cmd, "-o", str(out), "--max-shots", "5", "--json"])
     assert json.loads(again.stdout)[0]["resumed"] == 5
 
 
 def test_cli_bad_session_is_one_line(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from bowlrec.cli import app
+
     bad = tmp_path / "bad.yaml"
     bad.write_text("format: bowlrec-session\ngames: 3\nbowlers: [{name: A, scene: nope.json}]\n")
-    done = subprocess.run(
-        [sys.executable, "-m", "bowlrec.cli", "session", str(bad), "-a", str(tmp_path / "a")],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert done.returncode == 2
+    done = CliRunner().invoke(app, ["session", str(bad), "-a", str(tmp_path / "a")])
+    assert done.exit_code == 2
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error:") and "bowlers[0].scene" in lines[0]
 
@@ -210,6 +203,7 @@ def test_a_sweep_expands_into_named_sessions() -> None:
         expand_sessions(data)
 
 
+@pytest.mark.process  # a process pool
 def test_cli_plays_a_sweep_on_parallel_workers(tmp_path: Path) -> None:
     session = tmp_path / "s.json"
     data = _spec().model_dump(mode="json")
@@ -231,6 +225,7 @@ def test_cli_plays_a_sweep_on_parallel_workers(tmp_path: Path) -> None:
     assert len(Archive(tmp_path / "a", create=False).list_runs()) == 6
 
 
+@pytest.mark.fault  # SIGKILL
 def test_a_session_killed_mid_run_resumes_to_the_same_shots(tmp_path: Path) -> None:
     """SIGKILL once the first shots are sealed; the rerun reads them back and plays the rest,
     and every shot (run ID, result, oil) equals an uninterrupted session's."""
@@ -283,6 +278,7 @@ def test_bowlers_share_one_lane() -> None:
         )
 
 
+@pytest.mark.process  # a Dask cluster of processes
 def test_sessions_on_a_dask_cluster_equal_local_ones(tmp_path: Path) -> None:
     distributed = pytest.importorskip(
         "distributed", reason="dask.distributed not installed (pip install 'bowlrec[dask]')"

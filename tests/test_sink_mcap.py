@@ -201,6 +201,7 @@ def _rerun_binary() -> str:
     return exe
 
 
+@pytest.mark.process  # the rerun binary
 def test_rerun_mcap_check_passes(mcap_path: Path) -> None:
     done = subprocess.run(
         [_rerun_binary(), "mcap", "check", str(mcap_path)],
@@ -216,6 +217,7 @@ def test_rerun_mcap_check_passes(mcap_path: Path) -> None:
         ), done.stdout
 
 
+@pytest.mark.process  # the rerun binary
 def test_rerun_convert_turns_tf_into_transform3d(
     run: RunData, mcap_path: Path, tmp_path: Path
 ) -> None:
@@ -455,6 +457,7 @@ def test_same_run_gives_identical_bytes(run: RunData, mcap_path: Path, tmp_path:
 # ---------------------------------------------------------------- batch files
 
 
+@pytest.mark.process  # the rerun binary
 def test_batch_file_holds_every_run(run: RunData, run16: RunData, tmp_path: Path) -> None:
     runs = [run, run16, run]
     keys = mf.run_keys(runs)
@@ -503,6 +506,7 @@ def test_batch_needs_a_run(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_importing_the_sinks_package_does_not_load_foxglove_or_mcap() -> None:
     code = (
         "import sys, bowlrec, bowlrec.sinks\n"

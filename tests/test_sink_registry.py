@@ -218,6 +218,7 @@ def test_a_missing_library_names_the_extra(monkeypatch: pytest.MonkeyPatch) -> N
     assert not isinstance(caught_bug.value, MissingExtraError)
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_start_up_loads_no_format_library() -> None:
     """``import bowlrec``, the registry and ``bowlrec --help`` (whose help texts list the
     registry's suffixes) load no format library, not even NumPy."""

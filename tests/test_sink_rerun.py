@@ -102,6 +102,7 @@ def _event_log(path: Path) -> tuple[np.ndarray, list[str]]:
 # file
 
 
+@pytest.mark.process  # the rerun binary
 def test_rrd_verifies_with_the_real_binary(rrd: Path) -> None:
     result = subprocess.run(
         [RERUN_BIN, "rrd", "verify", str(rrd)], capture_output=True, text=True, timeout=60
@@ -293,6 +294,7 @@ def test_summary_document_of_a_run_that_never_rolls() -> None:
     assert hook is not None and f"| hook | {100 * hook:.2f} cm |" in text
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_sinks_package_does_not_import_rerun() -> None:
     code = "import sys, bowlrec.sinks; print('rerun' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
@@ -314,6 +316,7 @@ def test_spawn_without_display_raises_at_once(
     assert time.monotonic() - start < 2.0
 
 
+@pytest.mark.process  # sockets on loopback
 def test_connect_to_nothing_raises_at_once(run: RunData) -> None:
     port = _free_port()
     start = time.monotonic()
@@ -324,6 +327,7 @@ def test_connect_to_nothing_raises_at_once(run: RunData) -> None:
         stream_run(run, connect_url="http://127.0.0.1:9876/")
 
 
+@pytest.mark.process  # a listening socket on loopback
 @pytest.mark.parametrize("reply", [b"SSH-2.0-OpenSSH_9.2\r\n", None])
 def test_a_listener_that_is_not_a_viewer_is_refused(
     run: RunData, reply: bytes | None, monkeypatch: pytest.MonkeyPatch
@@ -415,6 +419,7 @@ def _received(path: Path, entities: set[str], n: int, timeout_s: float) -> bool:
     return False
 
 
+@pytest.mark.process  # sockets on loopback
 def test_live_stream_reaches_a_headless_receiver(
     run: RunData, rrd: Path, receiver: tuple[str, Path]
 ) -> None:

@@ -117,6 +117,7 @@ def test_dump_is_canonical() -> None:
     assert list(json.loads(text)) == sorted(json.loads(text))
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_spec_does_not_import_numba() -> None:
     """The scene stack's bottom loads neither numba nor the layers above it, and PyYAML only
     for a YAML file."""

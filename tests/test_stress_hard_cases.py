@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from scene_builders import scene
+from helpers.scene_builders import scene
 
 from bowlrec import simulate
 from bowlrec.core.codes import RECORD_SUMMARY

@@ -152,12 +152,6 @@ def scenes(
 # ----------------------------------------------------------------------------- helpers
 
 
-def require_slow_selected(request: pytest.FixtureRequest) -> None:
-    """Heavy variants run only when asked for by marker (``-m slow``); a plain run skips them."""
-    if "slow" not in (request.config.getoption("markexpr", "") or ""):
-        pytest.skip("heavy stress variant: select it with -m slow")
-
-
 #: a cap on the integrator's steps so that a stalling delivery fails fast instead of running
 #: the default 2,000,000 steps; legitimate runs here take < 20,000 (stick-slip at rtol 1e-11)
 MAX_STEPS = 300_000
@@ -286,10 +280,9 @@ def test_random_deliveries_are_finite_valid_and_conserve_energy(d: dict[str, Any
 
 
 @pytest.mark.slow
-def test_random_deliveries_invariants_many_tolerances(request: pytest.FixtureRequest) -> None:
+def test_random_deliveries_invariants_many_tolerances() -> None:
     """Heavy variant: 4,000 deliveries at rtol 1e-6, 1e-7, 1e-9 and 1e-11 (duration:
     benchmarks/results/stress.md)."""
-    require_slow_selected(request)
 
     @_settings(4000)
     @given(scenes(record="steps"), st.sampled_from([1e-6, 1e-7, 1e-9, 1e-11]))
@@ -368,9 +361,8 @@ def test_energy_lost_equals_friction_work(d: dict[str, Any]) -> None:
 
 
 @pytest.mark.slow
-def test_energy_lost_equals_friction_work_many(request: pytest.FixtureRequest) -> None:
+def test_energy_lost_equals_friction_work_many() -> None:
     """Heavy variant: 1,500 deliveries (duration: benchmarks/results/stress.md)."""
-    require_slow_selected(request)
 
     @_settings(1500)
     @given(scenes())
@@ -552,10 +544,9 @@ def test_symmetric_core_any_axis_2_gives_the_same_summary(d: dict[str, Any], psi
 
 
 @pytest.mark.slow
-def test_mirror_and_relabeling_many(request: pytest.FixtureRequest) -> None:
+def test_mirror_and_relabeling_many() -> None:
     """Heavy variant: 1,500 deliveries, each mirrored and relabeled 7-10 ways (duration:
     benchmarks/results/stress.md)."""
-    require_slow_selected(request)
 
     @_settings(1500)
     @given(scenes(record="summary", rtol=1e-12), st.floats(0.0, 2.0 * math.pi))

@@ -78,6 +78,7 @@ def test_without_pandas_the_error_names_the_extra(
     assert isinstance(caught.value, ImportError) and caught.value.name == "pandas"
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_import_bowlrec_does_not_import_pandas() -> None:
     code = "import sys, bowlrec, bowlrec.core.trajectory; print('pandas' in sys.modules)"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)

@@ -14,8 +14,7 @@ from typer.testing import CliRunner
 
 import bowlrec
 from bowlrec.bowling.pocket import POCKET
-from bowlrec.bowling.scene import BowlerScene
-from bowlrec.bowling.shot import Shot
+from bowlrec.bowling.scene import BowlerScene, Shot
 from bowlrec.bowling.variance import PRESETS, ReleaseScatter, draw_releases, release_scatter
 from bowlrec.cli import app
 

@@ -29,7 +29,7 @@ pytest.importorskip("fastapi")
 pytest.importorskip("jinja2")
 sync_api = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
 
-from test_service import Server, start_server  # noqa: E402
+from helpers.servers import Server  # noqa: E402
 
 from bowlrec.api import simulate_into  # noqa: E402
 from bowlrec.archive import Archive  # noqa: E402
@@ -48,10 +48,13 @@ def _chromium() -> str | None:
 
 
 CHROMIUM = _chromium()
-pytestmark = pytest.mark.skipif(
-    CHROMIUM is None,
-    reason="no Chromium found (apt-get install chromium, or set BOWLREC_CHROMIUM)",
-)
+pytestmark = [
+    pytest.mark.browser,
+    pytest.mark.skipif(
+        CHROMIUM is None,
+        reason="no Chromium found (apt-get install chromium, or set BOWLREC_CHROMIUM)",
+    ),
+]
 
 #: the rerun viewer compiles 43 MB of wasm with software rendering: allow it this long
 VIEWER_TIMEOUT_MS = 240_000
@@ -137,12 +140,10 @@ class Watch:
 
 
 @pytest.fixture(scope="module")
-def site(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[Server, list[str]]]:
+def site(tmp_path_factory: pytest.TempPathFactory, module_serve: Any) -> tuple[Server, list[str]]:
     archive = tmp_path_factory.mktemp("web") / "archive"
     ids = _populate(archive)
-    srv = start_server(archive)
-    yield srv, ids
-    srv.stop()
+    return module_serve(archive), ids
 
 
 @pytest.fixture(scope="module")
@@ -395,8 +396,8 @@ def test_a_cross_site_form_post_is_refused(browser: Any, site: tuple[Server, lis
         evil.shutdown()
 
 
-def test_a_token_server_asks_to_sign_in(browser: Any, tmp_path: Path) -> None:
-    srv = start_server(tmp_path / "archive", TOKEN)
+def test_a_token_server_asks_to_sign_in(browser: Any, serve: Any) -> None:
+    srv = serve(None, TOKEN)
     try:
         context = browser.new_context(base_url=srv.url)
         watch = Watch(srv.url, allowed_status={401})

@@ -11,7 +11,7 @@ import xml.etree.ElementTree as ET
 from typing import Any
 
 import pytest
-from scene_builders import scene as scene_dict
+from helpers.scene_builders import scene as scene_dict
 
 from bowlrec.archive.replay import simulate_sampled
 from bowlrec.bowling.ball import BowlerBall
@@ -74,6 +74,7 @@ def runs() -> list[RunData]:
     return out
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_import_does_not_import_matplotlib() -> None:
     """The figures package, and the layers that call it, import matplotlib only when a figure
     is drawn."""

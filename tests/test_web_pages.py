@@ -1,5 +1,6 @@
-"""The web app's pages and their API over HTTP, against a real ``bowlrec serve`` on loopback
-(the browser tests in ``test_web_browser.py`` drive the same pages in Chromium)."""
+"""The web app's pages and their API over HTTP, against the app in process, and ``bowlrec ui``
+as a real process (the browser tests in ``test_web_browser.py`` drive the same pages in
+Chromium)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ httpx = pytest.importorskip("httpx")
 pytest.importorskip("fastapi")
 pytest.importorskip("jinja2")
 
-from test_service import Server, start_server  # noqa: E402
+from helpers.servers import AppServer  # noqa: E402
 
 from bowlrec.api import simulate_into  # noqa: E402
 from bowlrec.archive import Archive  # noqa: E402
@@ -53,14 +54,12 @@ def populated(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list[str]
 
 
 @pytest.fixture(scope="module")
-def server(populated: tuple[Path, list[str]]) -> Iterator[Server]:
-    srv = start_server(populated[0])
-    yield srv
-    srv.stop()
+def server(populated: tuple[Path, list[str]], module_app_server: Any) -> AppServer:
+    return module_app_server(populated[0])
 
 
 @pytest.fixture(scope="module")
-def client(server: Server) -> Iterator[httpx.Client]:
+def client(server: AppServer) -> Iterator[httpx.Client]:
     with server.client() as c:
         yield c
 
@@ -304,10 +303,10 @@ def test_the_api_docs_are_served_from_here(client: httpx.Client) -> None:
             assert client.get(url).status_code == 200, url
 
 
-def test_a_token_server_shows_a_sign_in_page(tmp_path: Path) -> None:
-    srv = start_server(tmp_path / "archive", TOKEN)
+def test_a_token_server_shows_a_sign_in_page(app_server: Any) -> None:
+    srv = app_server(token=TOKEN)
     try:
-        with httpx.Client(base_url=srv.url, timeout=30) as c:
+        with srv.client(auth=False) as c:
             for path in ("/", "/ui/jobs", "/ui/balls"):
                 r = c.get(path)
                 assert r.status_code == 401 and 'id="signin"' in r.text, path
@@ -324,6 +323,7 @@ def test_a_token_server_shows_a_sign_in_page(tmp_path: Path) -> None:
 # -- bowlrec ui ----------------------------------------------------------------------------------
 
 
+@pytest.mark.process
 def test_bowlrec_ui_serves_on_loopback_and_stops_on_ctrl_c(tmp_path: Path) -> None:
     archive = Archive(tmp_path / "ui")
     simulate_into(archive, _scene("one", 7.0))
@@ -360,6 +360,7 @@ def test_bowlrec_ui_serves_on_loopback_and_stops_on_ctrl_c(tmp_path: Path) -> No
     assert err.strip().endswith("bowlrec: stopped") and "Traceback" not in err
 
 
+@pytest.mark.process
 def test_bowlrec_ui_does_not_make_an_archive_of_a_wrong_path(tmp_path: Path) -> None:
     bowlrec = Path(sys.executable).parent / "bowlrec"
     out = subprocess.run(

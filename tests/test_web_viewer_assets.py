@@ -34,6 +34,8 @@ needs_rerun = pytest.mark.skipif(
 )
 
 DIR_NAME = f"rerun-web-viewer-{VIEWER_VERSION}"
+#: the extraction runs rerun's server in a child process: its users are in the process tier
+FIXTURE_TIERS = {"extracted": "process"}
 
 
 @pytest.fixture(scope="module")
@@ -199,6 +201,7 @@ def test_a_damaged_manifest_is_extracted_again(extracted: ViewerAssets, tmp_path
 # -- concurrency -------------------------------------------------------------------------
 
 
+@pytest.mark.process  # extraction runs rerun's server in a child process
 @needs_rerun
 def test_threads_extracting_at_once_end_with_one_valid_cache(tmp_path: Path) -> None:
     directory = tmp_path / DIR_NAME
@@ -220,6 +223,7 @@ def test_threads_extracting_at_once_end_with_one_valid_cache(tmp_path: Path) -> 
     assert_valid_cache(directory)
 
 
+@pytest.mark.process  # extraction runs rerun's server in a child process
 @needs_rerun
 def test_processes_extracting_at_once_end_with_one_valid_cache(tmp_path: Path) -> None:
     directory = tmp_path / DIR_NAME
@@ -258,6 +262,7 @@ def test_missing_or_wrong_rerun_says_what_to_install(
     assert not (tmp_path / DIR_NAME).exists()
 
 
+@pytest.mark.process  # a fresh interpreter's modules
 def test_importing_the_module_does_not_import_rerun() -> None:
     code = "import sys, bowlrec.web.viewer_assets; print('rerun' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

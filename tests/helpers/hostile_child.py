@@ -9,13 +9,13 @@ Channels (each checks one :class:`hostile_inputs.Mutation` and returns its probl
 * ``subprocess``: the same commands as ``.venv/bin/bowlrec`` processes (address space limited);
 * ``server``: the same requests over TCP to a real ``bowlrec serve``.
 
-The in-process channels run in a worker process (``python hostile_child.py CHANNEL WORKDIR``)
-so that a hostile input cannot take the test process or the machine down: the worker's address
-space is limited (``RLIMIT_AS``, a MemoryError then fails the input), the growth of its peak RSS
-is checked per input, and the parent kills and restarts it when an input does not finish in
-time (a hang inside compiled code cannot be interrupted in-process). Protocol: the parent writes
-one mutation id per line on stdin; the worker answers one JSON line per input on its stdout
-(everything else the worker prints goes to stderr).
+The in-process channels run in a worker process (``python -m helpers.hostile_child CHANNEL
+WORKDIR``) so that a hostile input cannot take the test process or the machine down: the
+worker's address space is limited (``RLIMIT_AS``, a MemoryError then fails the input), the
+growth of its peak RSS is checked per input, and the parent kills and restarts it when an input
+does not finish in time (a hang inside compiled code cannot be interrupted in-process).
+Protocol: the parent writes one mutation id per line on stdin; the worker answers one JSON line
+per input on its stdout (everything else the worker prints goes to stderr).
 
 A problem is ``{"symptom": ..., "detail": ...}``; symptoms: ``traceback`` (an exception or a
 printed traceback), ``exit_code``, ``5xx``, ``non_finite`` (NaN/Infinity in JSON output),
@@ -46,10 +46,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import hostile_inputs as hi  # tests/: pytest's pythonpath; the script's own dir in the worker
+from helpers import hostile_inputs as hi
+from helpers.processes import child_command
+from helpers.processes import child_env as _child_env
+from helpers.servers import start_server
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
+ROOT = HERE.parents[1]
 
 #: address-space limit of the worker, subprocess and server processes
 MEM_LIMIT_BYTES = int(os.environ.get("BOWLREC_HOSTILE_MEM_GB", "6")) * 2**30
@@ -516,13 +519,11 @@ def worker_main(channel: str, workdir: Path) -> None:
 
 
 def child_env(workdir: Path) -> dict[str, str]:
-    env = dict(os.environ)
-    for key in ("BOWLREC_TOKEN", "BOWLREC_SCHEDULER"):
-        env.pop(key, None)
-    env["BOWLREC_ARCHIVE"] = str(workdir / "default-archive")
-    env["BOWLREC_CONFIG"] = str(workdir / "no-config.toml")
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
+    return _child_env(
+        BOWLREC_ARCHIVE=str(workdir / "default-archive"),
+        BOWLREC_CONFIG=str(workdir / "no-config.toml"),
+        PYTHONUNBUFFERED="1",
+    )
 
 
 class Worker:
@@ -542,7 +543,7 @@ class Worker:
         wd.mkdir(parents=True, exist_ok=True)
         self.log = wd / "stderr.log"
         self.proc = subprocess.Popen(
-            [sys.executable, str(Path(__file__)), self.channel, str(wd)],
+            child_command("hostile_child", self.channel, str(wd)),
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             stderr=open(self.log, "wb"),  # noqa: SIM115 - the child owns it
@@ -722,73 +723,49 @@ def _one_process(m: hi.Mutation, args: list[str], path: Path, out: Path, workdir
 
 
 class RealServer:
-    """``bowlrec serve`` on 127.0.0.1 (tests/service_child.py), address space limited."""
+    """``bowlrec serve`` on 127.0.0.1 (:func:`helpers.servers.start_server`), address space
+    limited."""
 
     def __init__(self, workdir: Path) -> None:
         self.workdir = workdir
-        self.proc: subprocess.Popen[bytes] | None = None
-        self.url = ""
+        self.server: Any = None
+        self.last_log = ""
         self.starts = 0
 
     def start(self) -> None:
-        import socket
-
-        import httpx
-
         self.starts += 1
-        for _ in range(3):
-            with socket.socket() as s:
-                s.bind(("127.0.0.1", 0))
-                port = int(s.getsockname()[1])
-            log = open(self.workdir / f"server-{self.starts}.log", "wb")  # noqa: SIM115
-            self.proc = subprocess.Popen(
-                [
-                    sys.executable,
-                    str(HERE / "service_child.py"),
-                    "--archive",
-                    str(self.workdir / "archive"),
-                    "--port",
-                    str(port),
-                    "--log-level",
-                    "warning",
-                ],
-                stdout=subprocess.DEVNULL,
-                stderr=log,
-                env=child_env(self.workdir),
-                preexec_fn=limit_memory,
-            )
-            self.url = f"http://127.0.0.1:{port}"
-            deadline = time.monotonic() + 120
-            while time.monotonic() < deadline and self.proc.poll() is None:
-                try:
-                    if httpx.get(f"{self.url}/health", timeout=1.0).status_code == 200:
-                        return
-                except httpx.TransportError:
-                    time.sleep(0.1)
-            self.stop()
-        raise RuntimeError("bowlrec serve did not start")
+        extra = {"BOWLREC_ARCHIVE": str(self.workdir / "default-archive")}
+        extra["BOWLREC_CONFIG"] = str(self.workdir / "no-config.toml")
+        self.server = start_server(
+            self.workdir / "archive",
+            home=self.workdir / f"home-{self.starts}",
+            env={**extra, "PYTHONUNBUFFERED": "1"},
+            preexec_fn=limit_memory,
+        )
+
+    @property
+    def proc(self) -> subprocess.Popen[bytes] | None:
+        return None if self.server is None else self.server.proc
+
+    @property
+    def url(self) -> str:
+        return "" if self.server is None else str(self.server.url)
 
     def alive(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
 
     def client(self) -> Any:
-        import httpx
-
-        return httpx.Client(base_url=self.url, timeout=HARD_TIMEOUT_S["job"])
+        return self.server.client(timeout=HARD_TIMEOUT_S["job"])
 
     def stop(self) -> None:
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(20)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
-        self.proc = None
+        if self.server is not None:
+            self.server.stop()
+            self.last_log = self.server.log()
+        self.server = None
 
     def log_tail(self, n: int = 400) -> str:
-        logs = sorted(self.workdir.glob("server-*.log"))
-        return logs[-1].read_text(errors="replace")[-n:] if logs else ""
+        text = self.server.log() if self.server is not None else self.last_log
+        return text[-n:]
 
 
 def server_problems(m: hi.Mutation, server: RealServer) -> list[dict[str, str]]:

@@ -1,5 +1,6 @@
 """Scene dictionaries for tests: a uniform-ish ball on a constant-friction lane by default,
-every field overridable (SI units: m, m/s, rad/s, degrees for the take-off angle)."""
+every field overridable (SI units: m, m/s, rad/s, degrees for the take-off angle); the service
+tests' summary-only and sampled scenes."""
 
 from __future__ import annotations
 
@@ -36,4 +37,22 @@ def scene(
             "position_m": None if position is None else list(position),
         },
         "options": options,
+    }
+
+
+def summary_scene(i: int, name: str = "svc") -> dict[str, Any]:
+    """A distinct summary-only scene per ``i`` (closed-form solver: ~1 ms to simulate)."""
+    return {
+        "name": name,
+        "delivery": {"speed_mps": round(6.0 + 0.001 * i, 6)},
+        "options": {"record": "summary"},
+    }
+
+
+def sampled_scene() -> dict[str, Any]:
+    """A spinning delivery recorded every 10 ms (the integrator), replayable as MCAP/RRD."""
+    return {
+        "name": "sampled",
+        "delivery": {"speed_mps": 8.0, "omega_radps": [-16.62, 23.74, 7.765]},
+        "options": {"record": "rate", "record_dt_s": 0.01},
     }
