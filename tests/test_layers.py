@@ -75,3 +75,11 @@ def test_the_check_sees_a_circle_an_upward_import_and_a_typed_ground_import(
     assert ("bowlrec.archive.store", "bowlrec.core.a") in {
         (i.importer, i.imported) for i in imports
     }
+
+
+def test_the_architecture_page_shows_the_floors() -> None:
+    """docs/architecture.md's ``layers`` block is the table of FLOORS
+    (``python -m tools.layers --update-docs`` writes it)."""
+    from tools.readme_blocks import block_path, read_block
+
+    assert read_block(block_path("layers"), "layers") == layers.markdown()

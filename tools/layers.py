@@ -9,8 +9,8 @@ whole dotted name of a bowlrec module (a format's writer module in ``bowlrec.sin
 an importlib target) counts as an import of it.
 
 ``python -m tools.layers`` prints the floors and every breach (exit 1 if any);
-``python -m tools.layers --markdown`` prints the table of docs/architecture.md's ``layers``
-block; ``tests/test_layers.py`` runs the check in the default test tier.
+``python -m tools.layers --update-docs`` writes the floors into docs/architecture.md's
+``layers`` block; ``tests/test_layers.py`` runs the check in the default test tier.
 """
 
 from __future__ import annotations
@@ -51,7 +51,11 @@ FLOORS: list[tuple[str, tuple[str, ...], str]] = [
         ("bowlrec.figures",),
         "every picture (matplotlib) from the data below",
     ),
-    ("formats", ("bowlrec.sinks",), "one run written as HDF5, CSV, MCAP, rerun, NPZ, JSON, a plot"),
+    (
+        "formats",
+        ("bowlrec.sinks",),
+        "one run written as HDF5, CSV, MCAP, rerun, NPZ, JSON (PNG/SVG: figures)",
+    ),
     ("intake", ("bowlrec.scene_input",), "the one way in for a scene: file or mapping -> Scene"),
     ("archive", ("bowlrec.archive",), "segments, the index, the ball library, repair"),
     ("front door", ("bowlrec.api",), "simulate a scene; simulate into an archive"),
@@ -255,8 +259,11 @@ def markdown() -> str:
 
 
 def main(argv: list[str]) -> int:
-    if "--markdown" in argv:
-        sys.stdout.write(markdown())
+    if "--update-docs" in argv:
+        from tools.readme_blocks import block_path, replace_block
+
+        changed = replace_block(block_path("layers"), "layers", markdown())
+        print(f"{block_path('layers')}: {'updated' if changed else 'unchanged'}")
         return 0
     imports = all_imports()
     problems = [f"{m}: in no unit of FLOORS" for m in unplaced()]

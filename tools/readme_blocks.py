@@ -23,6 +23,7 @@ BLOCKS: dict[str, tuple[str, str]] = {
     "table3": ("docs/validation.md", "python -m tools.update_table3"),
     "table2": ("docs/bowlers.md", "python examples/table2_sweep.py --update-docs"),
     "coverstock": ("docs/coverstock.md", "python benchmarks/coverstock_sensitivity.py"),
+    "layers": ("docs/architecture.md", "python -m tools.layers --update-docs"),
 }
 
 

@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+
 from helpers.processes import child_command, child_env, home_env
 
 LOOPBACK = "127.0.0.1"
