@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 
-from .segment_file import write_segment
 from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
@@ -272,6 +271,8 @@ def seal_columns(
     """Write a segment's datasets (as :meth:`SegmentBuilder.columns` makes them) as a new
     sealed segment under ``directory``; its info. ``samples``: see
     :func:`~bowlrec.archive.segment_file.write_segment`."""
+    from .segment_file import write_segment  # h5py: loaded by the first write, not on import
+
     segment_id = new_segment_id()
     path = Path(directory) / f"{segment_id}.h5"
     write_segment(path, segment_id, columns, provenance, durable=durable, samples=samples)
