@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
@@ -180,6 +180,8 @@ _fraction = st.floats(0.0, 1.0)
     shots=st.integers(1, 6),
     load=st.floats(0.0, 500.0),
 )
+# found by this test: a load laid down whole left -2.6e-23 uL on the ball by rounding
+@example(seed=4709, pickup=0.0, carry=0.625, absorb=0.0, width=0.0078125, shots=1, load=1.0)
 def test_conservation_over_a_session(
     seed: int, pickup: float, carry: float, absorb: float, width: float, shots: int, load: float
 ) -> None:

@@ -321,7 +321,8 @@ def apply_track(
             share = area[i] / area_row[i]
             deposit[i] = laid * share
             laid = float(deposit[i].sum())  # what the cells received, to rounding
-        load = load - laid + float(lift_row[i])
+        # all of a load laid down (carrydown 1 over a foot or more) can leave -1e-23 by rounding
+        load = max(load - laid, 0.0) + float(lift_row[i])
     new_vol = vol - lift + deposit
     lifted, deposited = float(lift.sum()), float(deposit.sum())
     ledger = TransferLedger(
