@@ -246,6 +246,7 @@ def warm_up_kernels() -> None:
     solve(offset)
     solve(dataclasses.replace(offset, record_mode=RECORD_STEPS, record_terms=True))
     solve(dataclasses.replace(offset, record_mode=RECORD_RATE, record_dt_s=0.01))
+    solve(offset, stations_m=[1.0, 4.572, 15.0], turns=True)  # a bowler's report, aim
     packed = pack_plans([uniform, offset])
     run_batch(packed, parallel=False)
     run_batch(packed, parallel=True)
