@@ -499,7 +499,9 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
         )
     if SELECTED or DESELECTED:
         ran = ", ".join(f"{t} {SELECTED[t]}" for t in TIERS if SELECTED[t])
-        line = f"tiers: selected {ran or 'nothing'}"
+        line = f"tests per tier: selected {ran or 'none'}"
+        if config.option.markexpr or config.option.keyword:
+            line += " (before -m/-k)"
         skipped = ", ".join(f"{t} {DESELECTED[t]}" for t in TIERS if DESELECTED[t])
         if skipped:
             line += f"; not selected: {skipped} (--tier NAME or --tier all to run them)"
