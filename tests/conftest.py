@@ -246,6 +246,7 @@ def warm_up_kernels() -> None:
     solve(offset)
     solve(dataclasses.replace(offset, record_mode=RECORD_STEPS, record_terms=True))
     solve(dataclasses.replace(offset, record_mode=RECORD_RATE, record_dt_s=0.01))
+    solve(offset, stations_m=[1.0, 4.572, 15.0], turns=True)  # a bowler's report, aim
     packed = pack_plans([uniform, offset])
     run_batch(packed, parallel=False)
     run_batch(packed, parallel=True)
@@ -498,7 +499,9 @@ def pytest_terminal_summary(terminalreporter: Any, config: pytest.Config) -> Non
         )
     if SELECTED or DESELECTED:
         ran = ", ".join(f"{t} {SELECTED[t]}" for t in TIERS if SELECTED[t])
-        line = f"tiers: selected {ran or 'nothing'}"
+        line = f"tests per tier: selected {ran or 'none'}"
+        if config.option.markexpr or config.option.keyword:
+            line += " (before -m/-k)"
         skipped = ", ".join(f"{t} {DESELECTED[t]}" for t in TIERS if DESELECTED[t])
         if skipped:
             line += f"; not selected: {skipped} (--tier NAME or --tier all to run them)"
