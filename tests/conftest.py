@@ -15,12 +15,13 @@ finishes and again in the terminal summary.
 
 from __future__ import annotations
 
-import sys
-import time
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
+
+if TYPE_CHECKING:
+    from bowlrec.core.warm import WarmUp
 
 #: what the warm-up measured: "seconds", "compiled" and "loaded" (entries of numba's cache)
 WARM_UP: dict[str, float] = {}
@@ -38,48 +39,13 @@ def pytest_configure(config: pytest.Config) -> None:
     config.addinivalue_line("markers", "slow: heavy stress variants (run in benchmarks)")
 
 
-def _dispatchers() -> list[Any]:
-    """Every numba kernel of the loaded bowlrec modules."""
-    from numba.core.registry import CPUDispatcher
+def warm_up_kernels() -> WarmUp:
+    """Run every compiled kernel once (:func:`bowlrec.testing.warm.warm_up_all`: the integrator
+    in each recording mode and observing, the closed form, the many-delivery batch kernel serial
+    and parallel, and the paper's RK4 scheme when scipy is installed)."""
+    from bowlrec.testing.warm import warm_up_all
 
-    return [
-        obj
-        for name, module in list(sys.modules.items())
-        if name.startswith("bowlrec.") and module is not None
-        for obj in vars(module).values()
-        if isinstance(obj, CPUDispatcher) and obj.__module__ == name
-    ]
-
-
-def warm_up_kernels() -> None:
-    """Run every compiled kernel once: the integrator in each recording mode (summary, every
-    step with the equation terms, fixed rate), the closed form, the many-delivery batch kernel
-    serial and parallel, and the paper's RK4 scheme (when scipy is installed)."""
-    import dataclasses
-
-    from bowlrec.core.batch import pack_plans, run_batch
-    from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
-    from bowlrec.core.solver import solve, use_closed_form
-    from bowlrec.testing.scenes import table3_plans
-
-    plans = dict(table3_plans())  # summary only
-    uniform = plans["case01"]  # uniform ball: the closed form
-    offset = plans["case16"]  # offset ball on the typical pattern: the integrator
-    assert use_closed_form(uniform) and not use_closed_form(offset)
-    solve(uniform)
-    solve(offset)
-    solve(dataclasses.replace(offset, record_mode=RECORD_STEPS, record_terms=True))
-    solve(dataclasses.replace(offset, record_mode=RECORD_RATE, record_dt_s=0.01))
-    packed = pack_plans([uniform, offset])
-    run_batch(packed, parallel=False)
-    run_batch(packed, parallel=True)
-    try:
-        import scipy  # noqa: F401  (numba's np.linalg in the RK4 kernel)
-    except ImportError:
-        return
-    from bowlrec.testing.rk4 import paper_scheme
-
-    paper_scheme(offset, dt=1e-2)
+    return warm_up_all()
 
 
 def _report(config: pytest.Config, line: str) -> None:
@@ -109,12 +75,8 @@ def _kernels_warmed_up(pytestconfig: pytest.Config) -> Iterator[None]:
     if pytestconfig.getoption("no_kernel_warm_up"):
         yield
         return
-    start = time.perf_counter()
-    warm_up_kernels()
-    WARM_UP["seconds"] = time.perf_counter() - start
-    stats = [d.stats for d in _dispatchers()]
-    WARM_UP["compiled"] = sum(sum(s.cache_misses.values()) for s in stats)
-    WARM_UP["loaded"] = sum(sum(s.cache_hits.values()) for s in stats)
+    done = warm_up_kernels()
+    WARM_UP.update(seconds=done.seconds, compiled=done.compiled, loaded=done.loaded)
     _report(pytestconfig, _summary())
     yield
 
