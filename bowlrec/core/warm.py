@@ -330,10 +330,14 @@ def main(
     parser.add_argument("--cache-lock", help=argparse.SUPPRESS)  # a part of --jobs
     args = parser.parse_args(argv)
     names = args.names or ["all"]
+    try:
+        variants = _expand(names, extra or {})
+    except ValueError as err:
+        parser.error(str(err))
     if args.cache_lock:
         _lock_cache_writes(args.cache_lock)
     if args.jobs > 1:
-        result = warm_up_in_processes(split(_expand(names, extra or {}), args.jobs), module)
+        result = warm_up_in_processes(split(variants, args.jobs), module)
     else:
         result = warm_up(*names, extra=extra)
     print(json.dumps(result.as_dict()) if args.json else result, flush=True)
