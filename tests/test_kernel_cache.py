@@ -368,8 +368,12 @@ def test_warm_up_names_groups_and_extra_variants() -> None:
 
 
 @pytest.mark.process
-def test_the_warm_up_command_loads_the_kernels_in_a_fresh_process() -> None:
+def test_the_warm_up_command_loads_the_kernels_in_a_fresh_process(
+    pytestconfig: pytest.Config,
+) -> None:
     """The kernels are on disk (the session's warm-up): a fresh process loads, compiles none."""
+    if pytestconfig.getoption("no_kernel_warm_up"):
+        pytest.skip("needs the session's kernel warm-up (the kernels on disk)")
     out = subprocess.run(
         [sys.executable, "-m", "bowlrec.testing.warm", "--json", "service", "rk4"],
         capture_output=True,
