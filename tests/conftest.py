@@ -36,13 +36,11 @@ import os
 import shutil
 import socket
 import subprocess
-import sys
 import tempfile
-import time
 from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
 from helpers.processes import home_env
@@ -74,6 +72,9 @@ FIXTURE_TIERS = {
     "module_serve": "process",
     "run_bowlrec": "process",
 }
+
+if TYPE_CHECKING:
+    from bowlrec.core.warm import WarmUp
 
 #: what the warm-up measured: "seconds", "compiled" and "loaded" (entries of numba's cache)
 WARM_UP: dict[str, float] = {}
@@ -198,65 +199,25 @@ def pytest_unconfigure(config: pytest.Config) -> None:
 # -- the kernel warm-up ---------------------------------------------------------------------------
 
 
-def _dispatchers() -> list[Any]:
-    """Every numba kernel of the loaded bowlrec modules."""
-    if "numba" not in sys.modules:
-        return []
-    from numba.core.registry import CPUDispatcher
-
-    return [
-        obj
-        for name, module in list(sys.modules.items())
-        if name.startswith("bowlrec.") and module is not None
-        for obj in vars(module).values()
-        if isinstance(obj, CPUDispatcher) and obj.__module__ == name
-    ]
-
-
 def _compiled() -> Counter[str]:
     """Compilations of this process (numba cache misses), by kernel."""
+    from bowlrec.core.warm import kernels
+
     out: Counter[str] = Counter()
-    for d in _dispatchers():
+    for d in kernels():
         misses = sum(d.stats.cache_misses.values())
         if misses:
             out[f"{d.__module__.removeprefix('bowlrec.')}.{d.__name__}"] += misses
     return out
 
 
-def warm_up_kernels() -> None:
-    """Run every compiled kernel once: the integrator in each recording mode (summary, every
-    step with the equation terms, fixed rate, observing stations and turns), the closed form,
-    the many-delivery batch kernel serial and parallel, and the paper's RK4 scheme (when scipy
-    is installed).
+def warm_up_kernels() -> WarmUp:
+    """Run every compiled kernel once (:func:`bowlrec.testing.warm.warm_up_all`: the integrator
+    in each recording mode and observing, the closed form, the many-delivery batch kernel serial
+    and parallel, and the paper's RK4 scheme when scipy is installed)."""
+    from bowlrec.testing.warm import warm_up_all
 
-    The one call of the warm-up (:func:`pytest_sessionstart`): the kernel warm-up of
-    ``bowlrec.core.warm`` replaces this body with ``warm_up(...)``."""
-    import dataclasses
-
-    from bowlrec.core.batch import pack_plans, run_batch
-    from bowlrec.core.codes import RECORD_RATE, RECORD_STEPS
-    from bowlrec.core.solver import solve, use_closed_form
-    from bowlrec.testing.scenes import table3_plans
-
-    plans = dict(table3_plans())  # summary only
-    uniform = plans["case01"]  # uniform ball: the closed form
-    offset = plans["case16"]  # offset ball on the typical pattern: the integrator
-    assert use_closed_form(uniform) and not use_closed_form(offset)
-    solve(uniform)
-    solve(offset)
-    solve(dataclasses.replace(offset, record_mode=RECORD_STEPS, record_terms=True))
-    solve(dataclasses.replace(offset, record_mode=RECORD_RATE, record_dt_s=0.01))
-    solve(offset, stations_m=[1.0, 4.572, 15.0], turns=True)  # a bowler's report, aim
-    packed = pack_plans([uniform, offset])
-    run_batch(packed, parallel=False)
-    run_batch(packed, parallel=True)
-    try:
-        import scipy  # noqa: F401  (numba's np.linalg in the RK4 kernel)
-    except ImportError:
-        return
-    from bowlrec.testing.rk4 import paper_scheme
-
-    paper_scheme(offset, dt=1e-2)
+    return warm_up_all()
 
 
 def _report(config: pytest.Config, line: str) -> None:
@@ -288,12 +249,8 @@ def pytest_sessionstart(session: pytest.Session) -> None:
         return
     if config.getoption("no_kernel_warm_up"):
         return
-    start = time.perf_counter()
-    warm_up_kernels()
-    WARM_UP["seconds"] = time.perf_counter() - start
-    stats = [d.stats for d in _dispatchers()]
-    WARM_UP["compiled"] = sum(sum(s.cache_misses.values()) for s in stats)
-    WARM_UP["loaded"] = sum(sum(s.cache_hits.values()) for s in stats)
+    done = warm_up_kernels()
+    WARM_UP.update(seconds=done.seconds, compiled=done.compiled, loaded=done.loaded)
     COMPILED_IN_WARM_UP.update(_compiled())
     _report(config, _summary())
 

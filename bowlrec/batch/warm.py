@@ -1,15 +1,14 @@
-"""Imported by a batch's fork server: loads the compiled kernels from the on-disk cache once, so
-every worker forked from it starts ready (no per-worker import or cache load).
+"""Imported by a batch's fork server: loads the compiled kernels a worker runs (the ``batch``
+group of :func:`bowlrec.core.warm.warm_up`: the many-delivery kernel and the integrator) from the
+on-disk cache once, so every worker forked from it starts ready (no per-worker import or cache
+load).
 
 It first makes the fork server exit as soon as the process that started it is gone, and its
 workers with it (:mod:`bowlrec.batch.lifeline`)."""
 
 from __future__ import annotations
 
-from bowlrec.core.batch import pack_plans, run_batch
-from bowlrec.core.codes import RECORD_SUMMARY
-from bowlrec.core.solver import solve
-from bowlrec.spec import Scene
+from bowlrec.core.warm import warm_up
 
 from .lifeline import guard_fork_server
 
@@ -17,11 +16,7 @@ guard_fork_server()
 
 
 def _warm() -> None:
-
-    plan = Scene.model_validate({"options": {"record": "summary"}}).resolve()
-    assert plan.record_mode == RECORD_SUMMARY
-    run_batch(pack_plans([plan]), parallel=False)
-    solve(Scene.model_validate({"options": {"record": "steps", "max_time_s": 0.01}}).resolve())
+    warm_up("batch")
 
 
 _warm()

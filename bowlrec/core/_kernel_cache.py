@@ -1,37 +1,347 @@
-"""Drop stale numba caches of the kernels before any of them is compiled or loaded.
+"""Drop the numba cache entries of kernels whose code may have changed, before any is loaded.
 
-numba keys a cached function on its own source file only, so a kernel would keep a stale copy of
-a function it calls from another file (e.g. the integrator inlines ``dynamics.rhs``). To rule that
-out, the cached kernels are dropped whenever any source file of ``bowlrec/core`` differs from the
-one the cache was built from (one hash over the sources, cheap beside loading a kernel). ``vec``
-imports this module, and every kernel module imports ``vec``, so it runs once, before the first
-kernel loads.
+numba keys a cached kernel on its own source file only (the ``.nbi`` index holds a hash of that
+file). A kernel compiles what it calls from other modules into itself (the integrator inlines
+``dynamics.rhs``) and freezes the module constants it reads, including those it imports
+(``N_STATE`` from ``codes``, ``FLOAT_METRICS`` from the Python-only ``trajectory``): after an
+edit of another module, numba would serve a stale copy. The rule, per directory of modules:
+
+* a **kernel module** is a module of the directory with a numba-decorated function (``@njit``,
+  ``@numba.jit(...)``...: read with :mod:`ast`);
+* its **dependencies** are its own file and, transitively, every module of its top package
+  (``bowlrec``) it imports at module level: ``import bowlrec.x``, ``from .x import y``,
+  ``from . import x``, ``from .. import x``, also inside ``if``/``try``/``with`` blocks; not
+  under ``if TYPE_CHECKING:``, and not inside functions (a kernel cannot import, so a lazy
+  import reaches Python code only). ``from . import NAME`` of a name defined in a package's
+  ``__init__`` counts as that ``__init__``. This module is nobody's dependency: ``vec`` imports
+  it to run the check, no kernel uses it;
+* a kernel module's **dependency hash** is the SHA-256 over the paths and contents of its
+  dependencies. Its cache entries (``<module>.<function>-<line>.py311[.N].nbi``/``.nbc``) are
+  dropped when that hash differs from the one in the cache directory's stamp
+  (``bowlrec-kernel-deps.json``); so are the entries of a module that is no kernel module. An
+  edit of ``dynamics`` drops every kernel module importing it, directly or not; an edit of the
+  Python-only ``solver`` drops ``batch``, which imports it; an edit of a module no kernel module
+  reaches (``warm``) drops nothing.
+
+The cache directory is the one numba picks for the directory's sources (``NUMBA_CACHE_DIR``,
+else ``__pycache__`` beside them, else numba's user-wide cache when that one is read-only): numba
+itself says which (:func:`kernel_cache_dir`). Where it is missing or read-only, nothing happens.
+
+Cost: the stamp is current when the directory has the modules it records and every file it
+records (the directory's modules and all dependencies) has the recorded content; checking that
+is a read of the stamp, a listing and a hash of each file, about 1 ms for ``bowlrec/core``
+(benchmarks/results/kernel_cache.md). Imports are parsed only when it is not.
+
+Concurrency: a process whose check fails takes an exclusive ``flock`` on
+``bowlrec-kernel-deps.lock`` in the cache directory, checks again (another process may have done
+the work meanwhile), drops the stale entries, writes the new stamp (atomically, after the drops)
+and releases the lock. A process loads kernels only after its own check passed, so no process
+drops an entry that another one loaded or wrote for the same sources; numba's temporary files
+(``*.tmp.*``) are never touched. What no check can see: a process that imported the sources
+before an edit and compiles a new signature after another process's check writes an entry built
+from the old sources. Restart long-running processes (a server, a pytest session) after editing
+kernel code.
+
+``vec`` imports this module, and every kernel entry point (integrator, closed form, batch) imports
+``vec``, so the check of ``bowlrec/core`` runs once per process, before the first kernel loads
+(its result: :data:`LAST`); ``bowlrec.testing.rk4`` runs :func:`drop_stale_kernels` on its own
+directory.
 """
 
 from __future__ import annotations
 
+import ast
+import contextlib
 import hashlib
+import json
+import os
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
+__all__ = [
+    "LAST",
+    "STAMP",
+    "Dropped",
+    "drop_stale_kernels",
+    "kernel_cache_dir",
+    "kernel_dependencies",
+    "module_imports",
+]
 
-def _drop_stale_kernel_cache() -> None:
-    here = Path(__file__).parent
-    digest = hashlib.sha256()
-    for source in sorted(here.glob("*.py")):
-        digest.update(source.name.encode())
-        digest.update(source.read_bytes())
-    stamp_text = digest.hexdigest()
-    cache = here / "__pycache__"
-    stamp = cache / "bowlrec-core-sources.sha256"
+#: the stamp of a cache directory: file hashes and each kernel module's dependency hash
+STAMP = "bowlrec-kernel-deps.json"
+#: the file processes lock before they drop entries or write the stamp
+LOCK = "bowlrec-kernel-deps.lock"
+#: the stamp's layout; a stamp of another layout counts as missing
+FORMAT = 1
+#: decorators that make a numba kernel (bare, called, or as attributes: ``numba.njit(...)``)
+NUMBA_DECORATORS = frozenset({"njit", "jit", "vectorize", "guvectorize", "cfunc", "stencil"})
+#: numba's cache files (never its ``*.tmp.*`` files, which another process may be writing)
+CACHE_SUFFIXES = (".nbi", ".nbc")
+
+#: this file, relative to its top package's parent ("bowlrec/core/_kernel_cache.py")
+_SELF = "/".join(Path(__file__).resolve().parts[-3:])
+
+
+@dataclass
+class Dropped:
+    """What :func:`drop_stale_kernels` did: the cache directory (None: numba has no writable
+    one); ``checked``: the stamp was compared (False: missing or read-only directory, nothing
+    done); ``modules``: the modules (file stems) whose entries were dropped, sorted; ``files``:
+    the ``.nbi``/``.nbc`` files removed; ``seconds``: the time it took."""
+
+    cache_dir: Path | None = None
+    checked: bool = False
+    modules: list[str] = field(default_factory=list)
+    files: int = 0
+    seconds: float = 0.0
+
+
+def _top_package(directory: Path) -> Path:
+    """The outermost package folder containing ``directory`` (module keys are relative to its
+    parent: ``bowlrec/core/dynamics.py``)."""
+    root = directory
+    while (root.parent / "__init__.py").is_file():
+        root = root.parent
+    return root
+
+
+def _modules(directory: Path, root: Path) -> list[Path]:
+    """The modules of ``directory``, this one excepted."""
+    return sorted(p for p in directory.glob("*.py") if _key(p, root) != _SELF)
+
+
+def _key(path: Path, root: Path) -> str:
+    return path.relative_to(root.parent).as_posix()
+
+
+def _module_file(root: Path, dotted: list[str]) -> Path | None:
+    """The file of the module ``dotted`` when it is in ``root``'s package: ``a/b.py`` or
+    ``a/b/__init__.py``."""
+    if not dotted or dotted[0] != root.name:
+        return None
+    base = root.parent.joinpath(*dotted)
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def _module_level(body: list[ast.stmt]) -> Iterator[ast.stmt]:
+    """The statements run when the module loads: ``body`` and its ``if``/``try``/``with``
+    blocks (not ``if TYPE_CHECKING:``, not function or class bodies)."""
+    for node in body:
+        yield node
+        if isinstance(node, ast.If):
+            test = node.test
+            name = test.id if isinstance(test, ast.Name) else getattr(test, "attr", None)
+            if name != "TYPE_CHECKING":
+                yield from _module_level(node.body)
+            yield from _module_level(node.orelse)
+        elif isinstance(node, ast.Try):
+            for block in (node.body, *(h.body for h in node.handlers), node.orelse):
+                yield from _module_level(block)
+            yield from _module_level(node.finalbody)
+        elif isinstance(node, ast.With):
+            yield from _module_level(node.body)
+
+
+def _is_kernel(node: ast.AST) -> bool:
+    if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+        return False
+    for decorator in node.decorator_list:
+        target = decorator.func if isinstance(decorator, ast.Call) else decorator
+        name = getattr(target, "id", None) or getattr(target, "attr", None)
+        if name in NUMBA_DECORATORS:
+            return True
+    return False
+
+
+def _read(path: Path, root: Path) -> tuple[list[Path], bool]:
+    """The modules of ``root``'s package ``path`` imports at module level, and whether it has
+    kernels. A file that does not parse (being edited) imports nothing and has no kernels: its
+    entries are dropped, and parsed again once its content changes."""
     try:
-        if stamp.exists() and stamp.read_text() == stamp_text:
+        tree = ast.parse(path.read_bytes(), filename=str(path))
+    except (SyntaxError, ValueError):
+        return [], False
+    package = list(path.relative_to(root.parent).parent.parts)  # for relative imports
+    found: set[Path] = set()
+    for node in _module_level(tree.body):
+        if isinstance(node, ast.Import):
+            hits = [_module_file(root, alias.name.split(".")) for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            parts = base + (node.module.split(".") if node.module else [])
+            module = _module_file(root, parts)
+            if module is not None and module.name == "__init__.py":
+                # from a package: its submodules, else names its __init__ defines
+                hits = [_module_file(root, [*parts, a.name]) or module for a in node.names]
+            else:
+                hits = [module]
+        else:
+            continue
+        found.update(h for h in hits if h is not None and _key(h, root) != _SELF)
+    found.discard(path)
+    return sorted(found), any(_is_kernel(node) for node in ast.walk(tree))
+
+
+def module_imports(path: Path) -> list[Path]:
+    """The modules of ``path``'s top package that ``path`` imports at module level (the rule of
+    the module doc), sorted."""
+    path = Path(path).resolve()
+    return _read(path, _top_package(path.parent))[0]
+
+
+def _scan(directory: Path, root: Path) -> tuple[dict[str, list[Path]], list[Path]]:
+    """Every kernel module of ``directory`` (file stem -> its dependencies, itself included,
+    sorted), and every file read: the directory's modules and all dependencies."""
+    read: dict[Path, tuple[list[Path], bool]] = {}
+
+    def visit(path: Path) -> tuple[list[Path], bool]:
+        if path not in read:
+            read[path] = _read(path, root)
+        return read[path]
+
+    kernels: dict[str, list[Path]] = {}
+    for path in _modules(directory, root):
+        if not visit(path)[1]:
+            continue
+        seen, todo = {path}, [path]
+        while todo:
+            for dep in visit(todo.pop())[0]:
+                if dep not in seen:
+                    seen.add(dep)
+                    todo.append(dep)
+        kernels[path.stem] = sorted(seen)
+    return kernels, sorted(read)
+
+
+def kernel_dependencies(directory: Path) -> dict[str, list[Path]]:
+    """Every kernel module of ``directory`` (by file stem) and its dependencies: its own file
+    and the package modules it imports at module level, transitively (the module doc)."""
+    directory = Path(directory).resolve()
+    return _scan(directory, _top_package(directory))[0]
+
+
+def kernel_cache_dir(directory: Path) -> Path | None:
+    """The directory numba caches the kernels of ``directory``'s modules in, or None when it
+    has no writable one: numba's own choice for a function defined in the directory's first
+    module (``NUMBA_CACHE_DIR``, ``__pycache__``, the user-wide cache; numba creates it)."""
+    sources = sorted(Path(directory).glob("*.py"))
+    if not sources:
+        return None
+    try:
+        from numba.core.caching import FunctionCache
+
+        namespace: dict[str, object] = {}
+        exec(compile("def probe():\n    pass\n", str(sources[0]), "exec"), namespace)
+        return Path(FunctionCache(namespace["probe"]).cache_path)
+    except (ImportError, AttributeError, RuntimeError, OSError):  # RuntimeError: none writable
+        return None
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _read_stamp(cache: Path) -> dict[str, dict[str, str]]:
+    """The stamp's ``files`` and ``kernels`` (empty when missing, unreadable or of another
+    layout)."""
+    try:
+        stamp = json.loads((cache / STAMP).read_bytes())
+        if stamp["format"] == FORMAT:
+            return {"files": dict(stamp["files"]), "kernels": dict(stamp["kernels"])}
+    except (OSError, ValueError, KeyError, TypeError):
+        pass
+    return {"files": {}, "kernels": {}}
+
+
+def _current(directory: Path, root: Path, stamp: dict[str, dict[str, str]]) -> bool:
+    """True when ``stamp`` was written for these sources (see the module doc; no parsing)."""
+    files = stamp["files"]
+    names = {_key(p, root) for p in _modules(directory, root)}
+    prefix = _key(directory, root) + "/"
+    recorded = {k for k in files if k.startswith(prefix) and "/" not in k[len(prefix) :]}
+    if not files or names != recorded:
+        return False
+    try:
+        return all(_sha256(root.parent / key) == digest for key, digest in files.items())
+    except OSError:  # a recorded file is gone
+        return False
+
+
+@contextlib.contextmanager
+def _locked(cache: Path) -> Iterator[None]:
+    """An exclusive lock on the cache directory, held until the block ends (waits for it)."""
+    fd = os.open(cache / LOCK, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            import fcntl
+        except ImportError:  # pragma: no cover - no flock (Windows): no lock
+            yield
             return
-        cache.mkdir(exist_ok=True)
-        for stale in list(cache.glob("*.nbi")) + list(cache.glob("*.nbc")):
-            stale.unlink(missing_ok=True)
-        stamp.write_text(stamp_text)
-    except OSError:
-        pass  # read-only install: numba then falls back to its own behaviour
+        fcntl.flock(fd, fcntl.LOCK_EX)  # released when fd closes
+        yield
+    finally:
+        os.close(fd)
 
 
-_drop_stale_kernel_cache()
+def _refresh(directory: Path, root: Path, cache: Path, done: Dropped) -> None:
+    """Under the lock: drop the entries of modules whose dependency hash changed, write the new
+    stamp."""
+    old = _read_stamp(cache)
+    if _current(directory, root, old):
+        return  # another process did it while this one waited for the lock
+    kernels, files = _scan(directory, root)
+    digests = {_key(p, root): _sha256(p) for p in files}
+    hashes: dict[str, str] = {}
+    for module, deps in kernels.items():
+        h = hashlib.sha256()
+        for dep in deps:
+            h.update(f"{_key(dep, root)}\0{digests[_key(dep, root)]}\n".encode())
+        hashes[module] = h.hexdigest()
+    kept = {m for m, h in hashes.items() if old["kernels"].get(m) == h}
+    dropped = set()
+    for name in os.listdir(cache):
+        module = name.split(".", 1)[0]
+        if name.endswith(CACHE_SUFFIXES) and module not in kept:
+            (cache / name).unlink(missing_ok=True)
+            dropped.add(module)
+            done.files += 1
+    done.modules = sorted(dropped)
+    stamp = {"format": FORMAT, "files": digests, "kernels": hashes}
+    tmp = cache / f"{STAMP}.tmp.{os.getpid()}"
+    try:
+        tmp.write_text(json.dumps(stamp, indent=1, sort_keys=True))
+        os.replace(tmp, cache / STAMP)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def drop_stale_kernels(directory: Path, cache_dir: Path | None = None) -> Dropped:
+    """Drop numba's cache entries of ``directory``'s kernel modules whose dependencies changed
+    since the cache directory's stamp was written (the module doc), and write the new stamp.
+    ``cache_dir``: the cache directory (default: numba's, :func:`kernel_cache_dir`). Does
+    nothing where it is missing or read-only; raises nothing for either."""
+    start = time.perf_counter()
+    directory = Path(directory).resolve()
+    root = _top_package(directory)
+    cache = kernel_cache_dir(directory) if cache_dir is None else Path(cache_dir)
+    done = Dropped(cache_dir=cache)
+    if cache is not None and cache.is_dir() and os.access(cache, os.W_OK):
+        try:
+            if not _current(directory, root, _read_stamp(cache)):
+                with _locked(cache):
+                    _refresh(directory, root, cache, done)
+            done.checked = True
+        except OSError:
+            pass  # the directory vanished or turned read-only meanwhile: numba copes alone
+    done.seconds = time.perf_counter() - start
+    return done
+
+
+#: what the check of ``bowlrec/core`` did when this module was imported
+LAST = drop_stale_kernels(Path(__file__).parent)

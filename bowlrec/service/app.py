@@ -50,7 +50,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from bowlrec.api import simulate, simulate_into
+from bowlrec.api import simulate_into
 from bowlrec.archive import Archive, parse_ball_ref
 from bowlrec.archive.group_commit import GroupCommitter
 from bowlrec.errors import (
@@ -66,7 +66,6 @@ from bowlrec.errors import (
     UnavailableError,
 )
 from bowlrec.sinks.registry import sink_named
-from bowlrec.spec import Scene
 from bowlrec.spec.errors import MAX_ECHO, format_errors, printable
 from bowlrec.versions import __version__
 from bowlrec.web import assets
@@ -634,10 +633,12 @@ def http_error_text(request: Request, err: StarletteHTTPException) -> str:
 
 
 def _warm_up() -> None:
-    """Load the compiled kernels (numba's on-disk cache) before the first request."""
+    """Load the compiled kernels a request and a job run in this process use (numba's on-disk
+    cache; compiled when missing or stale) before the first request: the ``service`` group of
+    :func:`bowlrec.core.warm.warm_up`."""
+    from bowlrec.core.warm import warm_up
 
-    for delivery in ({}, {"omega_radps": [-16.62, 23.74, 7.765]}):
-        simulate(Scene.model_validate({"delivery": delivery, "options": {"record": "summary"}}))
+    warm_up("service")
 
 
 def create_app(

@@ -19,14 +19,14 @@ scipy (in the ``test`` and ``bench`` extras), bowlrec itself does not.
 
 The kernels are cached on disk by numba (``bowlrec/testing/__pycache__``). numba keys a cached
 function on its own source file only, and these kernels compile bowlrec's dynamics into
-themselves: the cache is dropped whenever a source file of ``bowlrec/core`` differs from the
-one it was built from, as ``bowlrec.core._kernel_cache`` does for the core's own kernels.
+themselves: their entries are dropped when this module or a ``bowlrec`` module it imports
+(transitively: ``bowlrec.core.solver`` and what it imports) differs from the one they were built
+from, by the rule of ``bowlrec.core._kernel_cache`` for the core's own kernels.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import math
 from pathlib import Path
 from typing import Any
@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from bowlrec.core import dynamics as _dynamics
+from bowlrec.core._kernel_cache import drop_stale_kernels
 from bowlrec.core.codes import (
     OUTCOMES,
     PHASE_ROLL,
@@ -54,29 +54,8 @@ from bowlrec.core.solver import initial_state, kernel_params, needs_orientation
 __all__ = ["paper_scheme", "remove_slip_impulse", "result_dict", "summary_plan"]
 
 
-def _invalidate_stale_cache() -> None:
-    """Drop this module's cached kernels when any bowlrec/core source differs from the one they
-    were built from (the kernels inline bowlrec's ``rhs``; numba would keep a stale copy)."""
-    core = Path(_dynamics.__file__).parent
-    h = hashlib.sha256()
-    for p in sorted(core.rglob("*.py")):
-        h.update(p.relative_to(core).as_posix().encode())
-        h.update(p.read_bytes())
-    digest = h.hexdigest()
-    cache_dir = Path(__file__).parent / "__pycache__"
-    stamp = cache_dir / "rk4.bowlrec-core.sha256"
-    try:
-        if stamp.exists() and stamp.read_text() == digest:
-            return
-        cache_dir.mkdir(exist_ok=True)
-        for p in cache_dir.glob("rk4.*.nb[ic]"):
-            p.unlink()
-        stamp.write_text(digest)
-    except OSError:
-        pass
-
-
-_invalidate_stale_cache()
+#: what the check of this directory's numba cache did at import (before any kernel loads)
+CACHE_CHECK = drop_stale_kernels(Path(__file__).parent)
 
 
 def result_dict(

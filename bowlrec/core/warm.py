@@ -1,0 +1,348 @@
+"""Load (or compile) the compiled kernels a process needs, before its first real delivery.
+
+    python -m bowlrec.core.warm [NAME ...] [--jobs N]
+
+:func:`warm_up` runs each named kernel variant once on a small delivery, so numba loads it from
+its on-disk cache (or compiles it and writes the cache when the entry is missing or stale:
+``bowlrec.core._kernel_cache``), and reports the time and how many kernels it compiled and
+loaded. A name is a variant of :data:`VARIANTS` or a group of :data:`GROUPS`:
+
+* ``closed_form``: the closed form (uniform ball, summary only);
+* ``integrator``, ``steps``, ``rate``: the integrator recording the summary only, every step with
+  the equation terms, samples at a fixed rate (one compiled signature; the three run its three
+  recording paths);
+* ``observe``: the integrator with observed stations and turns (bowlers' reports, aim);
+* ``batch_serial``, ``batch_parallel``: the many-delivery kernel on one thread, on all threads;
+* groups: ``service`` (what a request, a job run in the server process and a session shot use:
+  closed form, integrator, serial batch), ``batch`` (what a batch's worker runs: the serial
+  batch kernel, which holds the closed form and the integrator compiled into it, and the
+  integrator for the runs it records in full), ``all`` (every variant above).
+
+``extra`` kernels (name -> function) run after the named ones: that is how
+``bowlrec.testing.warm`` adds the paper's RK4 scheme, which ``bowlrec.core`` may not import.
+
+The command warms the named kernels (default ``all``) and prints one line: seconds, kernels
+compiled, kernels loaded. ``--jobs N`` splits the work over N processes, each compiling a
+disjoint part of the variants (see :func:`warm_up_in_processes`: measured in
+benchmarks/results/kernel_cache.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .codes import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
+from .plan import Plan
+
+__all__ = [
+    "GROUPS",
+    "VARIANTS",
+    "WarmUp",
+    "kernel_counts",
+    "split",
+    "warm_up",
+    "warm_up_in_processes",
+]
+
+
+def _uniform() -> Plan:
+    """A uniform ball on a two-zone oil pattern, summary only (the closed form applies)."""
+    return Plan(
+        mass_kg=6.8,
+        radius_m=0.1085,
+        inertia_per_mass_m2=np.full(3, 0.4 * 0.1085**2),
+        r_delta_body_m=np.zeros(3),
+        q0=np.array([1.0, 0.0, 0.0, 0.0]),
+        position0_m=np.array([0.0, 0.5334]),
+        velocity0_mps=np.array([8.0, 0.0]),
+        omega0_radps=np.array([0.0, 30.0, 0.0]),
+        lane_length_m=18.288,
+        lane_width_m=1.0668,
+        friction_x_edges_m=np.array([12.192]),
+        friction_y_edges_m=np.array([0.10668, 0.96012]),
+        friction_mu=np.array([[0.2, 0.04, 0.2], [0.2, 0.2, 0.2]]),
+        rtol=1e-6,
+        record_mode=RECORD_SUMMARY,
+    )
+
+
+def _offset() -> Plan:
+    """An asymmetric ball with its center of mass off the center and tilted spin (integrator)."""
+    return dataclasses.replace(
+        _uniform(),
+        inertia_per_mass_m2=np.array([0.066, 0.067, 0.068]) ** 2,
+        r_delta_body_m=np.array([0.0, -0.0005, 0.0]),
+        q0=np.array([0.9, 0.1, 0.3, 0.2]) / np.linalg.norm([0.9, 0.1, 0.3, 0.2]),
+        omega0_radps=np.array([-16.62, 23.74, 7.765]),
+    )
+
+
+def _closed_form() -> None:
+    from .solver import solve, use_closed_form
+
+    plan = _uniform()
+    assert use_closed_form(plan)
+    solve(plan)
+
+
+def _integrator(**changes: Any) -> Callable[[], None]:
+    def run() -> None:
+        from .solver import solve, use_closed_form
+
+        plan = dataclasses.replace(_offset(), **changes)
+        assert not use_closed_form(plan)
+        solve(plan)
+
+    return run
+
+
+def _observe() -> None:
+    from .solver import solve
+
+    solve(_offset(), stations_m=(4.0, 12.0), turns=True)
+
+
+def _batch(parallel: bool) -> Callable[[], None]:
+    def run() -> None:
+        from .batch import pack_plans, run_batch
+
+        run_batch(pack_plans([_uniform(), _offset()]), parallel=parallel)
+
+    return run
+
+
+#: every kernel variant by name: a function that runs it once on a small delivery
+VARIANTS: dict[str, Callable[[], None]] = {
+    "closed_form": _closed_form,
+    "integrator": _integrator(),
+    "steps": _integrator(record_mode=RECORD_STEPS, record_terms=True),
+    "rate": _integrator(record_mode=RECORD_RATE, record_dt_s=0.01),
+    "observe": _observe,
+    "batch_serial": _batch(parallel=False),
+    "batch_parallel": _batch(parallel=True),
+}
+
+#: named sets of variants, by the process that needs them
+GROUPS: dict[str, tuple[str, ...]] = {
+    "service": ("closed_form", "integrator", "batch_serial"),
+    "batch": ("integrator", "batch_serial"),
+    "all": tuple(VARIANTS),
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class WarmUp:
+    """What :func:`warm_up` did: the variants it ran, wall and CPU seconds (this process, or
+    the sum over the processes of :func:`warm_up_in_processes`), and the kernels (compiled
+    signatures of numba dispatchers, callees included) compiled and loaded from numba's cache."""
+
+    names: tuple[str, ...]
+    seconds: float
+    cpu_seconds: float
+    compiled: int
+    loaded: int
+    jobs: int = 1
+
+    def __str__(self) -> str:
+        where = f" in {self.jobs} processes" if self.jobs > 1 else ""
+        return (
+            f"kernel warm-up: {self.seconds:.1f} s{where} ({self.cpu_seconds:.1f} s CPU), "
+            f"{self.compiled} kernels compiled, {self.loaded} loaded from numba's cache"
+        )
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+def kernel_counts() -> tuple[int, int]:
+    """(compiled, loaded): the signatures numba compiled and loaded from its cache so far, over
+    every kernel of the bowlrec modules loaded in this process."""
+    from numba.core.registry import CPUDispatcher
+
+    compiled = loaded = 0
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("bowlrec.") or module is None:
+            continue
+        for obj in list(vars(module).values()):
+            if isinstance(obj, CPUDispatcher) and obj.__module__ == name:
+                stats = obj.stats
+                compiled += sum(stats.cache_misses.values())
+                loaded += sum(stats.cache_hits.values())
+    return compiled, loaded
+
+
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _expand(names: Iterable[str], extra: Mapping[str, Callable[[], object]]) -> list[str]:
+    """The variants ``names`` stand for, in order, each once (``all``: ``extra`` too)."""
+    out: list[str] = []
+    for name in names:
+        group = (*GROUPS["all"], *extra) if name == "all" else GROUPS.get(name, (name,))
+        for variant in group:
+            if variant not in VARIANTS and variant not in extra:
+                known = ", ".join([*GROUPS, *VARIANTS, *extra])
+                raise ValueError(f"unknown kernel variant {variant!r} (known: {known})")
+            if variant not in out:
+                out.append(variant)
+    return out
+
+
+def warm_up(*names: str, extra: Mapping[str, Callable[[], object]] | None = None) -> WarmUp:
+    """Load or compile the kernel variants ``names`` (variants or groups, see the module doc;
+    none: ``all``). ``extra``: more variants (name -> a function that runs them once), run when
+    named or when ``all`` is. Returns what it did (:class:`WarmUp`).
+
+    >>> warm_up("service")  # doctest: +SKIP
+    WarmUp(names=('closed_form', 'integrator', 'batch_serial'), seconds=0.41, ...)
+    """
+    extra = dict(extra or {})
+    chosen = _expand(names or ("all",), extra)
+    start, cpu = time.perf_counter(), _cpu_seconds()
+    compiled0, loaded0 = kernel_counts()
+    for name in chosen:
+        (extra.get(name) or VARIANTS[name])()
+    compiled, loaded = kernel_counts()
+    return WarmUp(
+        names=tuple(chosen),
+        seconds=time.perf_counter() - start,
+        cpu_seconds=_cpu_seconds() - cpu,
+        compiled=compiled - compiled0,
+        loaded=loaded - loaded0,
+    )
+
+
+#: variants that share compiled signatures: a part of :func:`split` runs a unit whole
+_UNITS = (("batch_serial", "batch_parallel"), ("integrator", "steps", "rate"))
+#: rough CPU seconds of a variant's first compile after the ones before it in ``all``
+#: (benchmarks/results/kernel_cache.md); a variant not listed counts 10
+_COST = {
+    "batch_serial": 40,
+    "batch_parallel": 60,
+    "integrator": 45,
+    "observe": 30,
+    "closed_form": 25,
+}
+
+
+def split(names: Sequence[str], jobs: int) -> list[list[str]]:
+    """``names`` in at most ``jobs`` disjoint parts of about equal compile cost: the units of
+    variants sharing signatures, costliest first, each to the part with the least so far."""
+    units = [[n for n in names if n in unit] for unit in _UNITS]
+    units = [u for u in units if u] + [[n] for n in names if not any(n in u for u in _UNITS)]
+    units.sort(key=lambda u: -sum(_COST.get(n, 10) for n in u))
+    parts: list[list[str]] = [[] for _ in range(max(1, jobs))]
+    load = [0] * len(parts)
+    for unit in units:
+        i = load.index(min(load))
+        parts[i] += unit
+        load[i] += sum(_COST.get(n, 10) for n in unit)
+    return [p for p in parts if p]
+
+
+def _lock_cache_writes(lock: str) -> None:
+    """Serialize numba's cache writes with the other processes holding ``lock``.
+
+    numba adds an entry by reading a function's ``.nbi`` index, picking the next free data
+    file number and writing both back (each file atomically, ``os.replace``; numba/core/
+    caching.py, ``IndexDataCacheFile.save``). Two processes adding different signatures of one
+    function at once (``push_event`` has 14) can both pick number 1: one entry is lost, or the
+    index names the data file of the other signature. Reading stays unlocked: a reader sees an
+    index and data files written whole, and a missing data file makes it compile."""
+    import fcntl
+
+    from numba.core.caching import IndexDataCacheFile
+
+    save = IndexDataCacheFile.save
+
+    def locked_save(self: Any, key: Any, data: Any) -> None:
+        fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o600)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+            save(self, key, data)
+        finally:
+            os.close(fd)  # releases the lock
+
+    IndexDataCacheFile.save = locked_save  # type: ignore[method-assign]
+
+
+def warm_up_in_processes(parts: Sequence[Sequence[str]], module: str = __name__) -> WarmUp:
+    """Warm disjoint ``parts`` (lists of names) at once, one fresh ``python -m module`` process
+    each, their writes to numba's cache serialized (:func:`_lock_cache_writes`; ``module``'s
+    command must be :func:`main`). The seconds are the wall time of the whole, the CPU seconds
+    and counts the sums over the processes."""
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="bowlrec-warm-") as tmp:
+        lock = os.path.join(tmp, "numba-cache-writes.lock")
+        procs = [
+            subprocess.Popen(
+                [sys.executable, "-m", module, "--json", "--cache-lock", lock, *part],
+                stdout=subprocess.PIPE,
+                text=True,
+            )
+            for part in parts
+        ]
+        outs = [proc.communicate()[0] for proc in procs]
+    results = []
+    for part, proc, out in zip(parts, procs, outs, strict=True):
+        if proc.returncode != 0:
+            raise RuntimeError(f"warming {' '.join(part)} failed (exit {proc.returncode})")
+        results.append(json.loads(out.strip().splitlines()[-1]))
+    return WarmUp(
+        names=tuple(n for r in results for n in r["names"]),
+        seconds=time.perf_counter() - start,
+        cpu_seconds=sum(r["cpu_seconds"] for r in results),
+        compiled=sum(r["compiled"] for r in results),
+        loaded=sum(r["loaded"] for r in results),
+        jobs=len(parts),
+    )
+
+
+def main(
+    argv: Sequence[str] | None = None,
+    extra: Mapping[str, Callable[[], object]] | None = None,
+    module: str = __name__,
+) -> int:
+    """The command (``bowlrec.testing.warm`` runs it with its ``extra`` kernels)."""
+    parser = argparse.ArgumentParser(
+        prog=f"python -m {module}",
+        description="Load or compile bowlrec's numba kernels; prints one line.",
+    )
+    parser.add_argument("names", nargs="*", help="variants or groups (default: all)")
+    parser.add_argument(
+        "--jobs", type=int, default=1, help="compile in this many processes at once (default 1)"
+    )
+    parser.add_argument("--json", action="store_true", help="print the result as JSON")
+    parser.add_argument("--cache-lock", help=argparse.SUPPRESS)  # a part of --jobs
+    args = parser.parse_args(argv)
+    names = args.names or ["all"]
+    try:
+        variants = _expand(names, extra or {})
+    except ValueError as err:
+        parser.error(str(err))
+    if args.cache_lock:
+        _lock_cache_writes(args.cache_lock)
+    if args.jobs > 1:
+        result = warm_up_in_processes(split(variants, args.jobs), module)
+    else:
+        result = warm_up(*names, extra=extra)
+    print(json.dumps(result.as_dict()) if args.json else result, flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(module=__spec__.name))  # the processes of --jobs run it by name
