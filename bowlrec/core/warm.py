@@ -166,20 +166,29 @@ class WarmUp:
         return dataclasses.asdict(self)
 
 
+def kernels() -> list[Any]:
+    """Every numba kernel (dispatcher) defined by the bowlrec modules loaded in this process;
+    none when numba is not loaded."""
+    if "numba" not in sys.modules:
+        return []
+    from numba.core.registry import CPUDispatcher
+
+    return [
+        obj
+        for name, module in list(sys.modules.items())
+        if name.startswith("bowlrec.") and module is not None
+        for obj in list(vars(module).values())
+        if isinstance(obj, CPUDispatcher) and obj.__module__ == name
+    ]
+
+
 def kernel_counts() -> tuple[int, int]:
     """(compiled, loaded): the signatures numba compiled and loaded from its cache so far, over
     every kernel of the bowlrec modules loaded in this process."""
-    from numba.core.registry import CPUDispatcher
-
     compiled = loaded = 0
-    for name, module in list(sys.modules.items()):
-        if not name.startswith("bowlrec.") or module is None:
-            continue
-        for obj in list(vars(module).values()):
-            if isinstance(obj, CPUDispatcher) and obj.__module__ == name:
-                stats = obj.stats
-                compiled += sum(stats.cache_misses.values())
-                loaded += sum(stats.cache_hits.values())
+    for kernel in kernels():
+        compiled += sum(kernel.stats.cache_misses.values())
+        loaded += sum(kernel.stats.cache_hits.values())
     return compiled, loaded
 
 

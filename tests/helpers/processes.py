@@ -83,7 +83,7 @@ def run_bowlrec(
         bowlrec_command(*args),
         capture_output=True,
         text=True,
-        env=child_env(**overrides),
+        env=child_env(None, **overrides),
         timeout=timeout,
         **kw,
     )

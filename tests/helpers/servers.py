@@ -119,7 +119,7 @@ def start_server(
     home = home or archive.parent / f"{archive.name}-home"
     overrides: dict[str, str | None] = {**home_env(home), "BOWLREC_TOKEN": token}
     overrides.update(env or {})
-    full_env = child_env(**overrides)
+    full_env = child_env(None, **overrides)
     level = ("--log-level", log_level) if log_level else ()
     last = ""
     for attempt in range(3):  # a free port can be taken between the probe and the bind
