@@ -265,7 +265,7 @@ def record_cost(archive_dir: Path, runs: list[tuple[RunData, float]], repeats: i
 
 
 def _solver(run: RunData) -> str:
-    from bowlrec.core.solver import use_closed_form
+    from bowlrec.core.arguments import use_closed_form
 
     return "closed_form" if use_closed_form(run.plan) else "integrator"
 

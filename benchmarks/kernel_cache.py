@@ -17,9 +17,10 @@ its own child processes included). Per round, in this order:
   nothing: no entry was lost);
 * **warm**: nothing changed: every kernel loaded from the cache;
 * **edit M**: a comment line appended to ``bowlrec/core/M.py`` (the leaf kernel modules
-  ``summary`` and ``observe``, ``dynamics``, the Python-only ``solver``, ``trajectory`` and
-  ``outcome``), then one process (:data:`WARM`): the kernel modules whose entries the checks of
-  :mod:`bowlrec.core._kernel_cache` dropped, the signatures compiled, the time. The cache is
+  ``summary`` and ``observe``, ``dynamics``, the Python-only ``solver``, ``arguments``,
+  ``trajectory`` and ``outcome``), then one process (:data:`WARM`): the kernel modules whose
+  entries the checks of :mod:`bowlrec.core._kernel_cache` dropped, the signatures compiled, the
+  time. The cache is
   then warm for the edited sources; the next round appends another line;
 * **check**: the cost of the check when nothing changed, in one fresh process (:data:`CHECK`):
   its check of ``bowlrec/core`` at import (``LAST.seconds``), the median of 200 more calls of
@@ -101,9 +102,10 @@ EDITS = {
     "summary": "leaf kernel module",
     "observe": "leaf kernel module, the integrator imports it",
     "dynamics": "kernel module, nearly every kernel imports it",
-    "solver": "Python only",
+    "solver": "Python only, no kernel module imports it",
+    "arguments": "Python only, batch imports it",
     "trajectory": "Python only, summary freezes its constants",
-    "outcome": "Python only",
+    "outcome": "Python only, solver imports it",
 }
 
 
@@ -212,7 +214,7 @@ def _markdown(res: dict[str, Any]) -> str:
         f"| {cold['cpu_s']:.0f} |",
         "",
         "`testing/rk4` is the paper's RK4 scheme (bowlrec/testing), which imports "
-        "`bowlrec.core.solver`.",
+        "`bowlrec.core.arguments` and `dynamics`.",
         "",
         "## A cold compile in one process or two",
         "",

@@ -19,8 +19,9 @@ plus method-specific bookkeeping (``n_segments``/``n_steps``/``n_events``).
 The right-hand side is bowlrec's ``rhs(y, par, phase, mu, ux_ref, uy_ref, orient, dy)`` with
 ``par = kernel_params(plan)``; only PHASE_SLIDE and PHASE_ROLL are used. Note that ``rhs`` in
 PHASE_SLIDE lets friction act along the *slaved* direction whenever |s| < s_layer / 2
-(``par``'s slip-layer speed, tied to the tolerance by ``bowlrec.core.solver.slip_layer``): that is
-part of the right-hand side, and the only way it is defined at s = 0.
+(``par``'s slip-layer speed, tied to the tolerance by
+``bowlrec.core.arguments.slip_layer``): that is part of the right-hand side, and the only way
+it is defined at s = 0.
 """
 
 from __future__ import annotations
@@ -32,10 +33,11 @@ from typing import Any
 
 import numpy as np
 
+from bowlrec.core.arguments import initial_state, kernel_params, needs_orientation, slip_layer
 from bowlrec.core.codes import PHASE_ROLL, PHASE_SLIDE, RECORD_SUMMARY
 from bowlrec.core.dynamics import rhs, roll_accel, slaved_direction, slip
 from bowlrec.core.plan import Plan
-from bowlrec.core.solver import initial_state, kernel_params, needs_orientation, slip_layer, solve
+from bowlrec.core.solver import solve
 from bowlrec.testing.rk4 import paper_scheme
 from bowlrec.testing.rk4 import remove_slip_impulse as _remove_slip_impulse
 from bowlrec.testing.rk4 import result_dict as _result
@@ -211,7 +213,7 @@ def scipy_solve(
 
     The state at an event is solve_ivp's dense output at the located root; the quaternion is
     renormalized at every segment end. ``s_layer`` (m/s): slip speed of ``rhs``'s slaved
-    layer; None ties it to ``rtol`` as bowlrec does (``bowlrec.core.solver.slip_layer``).
+    layer; None ties it to ``rtol`` as bowlrec does (``bowlrec.core.arguments.slip_layer``).
     ``n_rhs`` counts every call of the compiled ``rhs`` (by the solver and by the event
     functions). More than ``max_segments`` segments -> outcome "stalled". ``log``: if a list,
     one dict per segment end (event, time, slip, solver evaluations, state) is appended.

@@ -211,13 +211,15 @@ def _compiled() -> Counter[str]:
     return out
 
 
-def warm_up_kernels() -> WarmUp:
+def warm_up_kernels(jobs: int = 1) -> WarmUp:
     """Run every compiled kernel once (:func:`bowlrec.testing.warm.warm_up_all`: the integrator
     in each recording mode and observing, the closed form, the many-delivery batch kernel serial
-    and parallel, and the paper's RK4 scheme when scipy is installed)."""
+    and parallel, and the paper's RK4 scheme when scipy is installed); ``jobs`` > 1: in that many
+    fresh processes at once, which compile a cold cache in about 0.7 of the time on 2 cores
+    (``benchmarks/results/kernel_cache.md``) and cost about a second when it is warm."""
     from bowlrec.testing.warm import warm_up_all
 
-    return warm_up_all()
+    return warm_up_all(jobs)
 
 
 def _report(config: pytest.Config, line: str) -> None:
@@ -249,7 +251,7 @@ def pytest_sessionstart(session: pytest.Session) -> None:
         return
     if config.getoption("no_kernel_warm_up"):
         return
-    done = warm_up_kernels()
+    done = warm_up_kernels(jobs=min(2, os.cpu_count() or 1))
     WARM_UP.update(seconds=done.seconds, compiled=done.compiled, loaded=done.loaded)
     COMPILED_IN_WARM_UP.update(_compiled())
     _report(config, _summary())

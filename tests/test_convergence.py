@@ -32,8 +32,9 @@ from dataclasses import replace
 
 import pytest
 
+from bowlrec.core.arguments import use_closed_form
 from bowlrec.core.codes import RECORD_SUMMARY
-from bowlrec.core.solver import solve, use_closed_form
+from bowlrec.core.solver import solve
 from bowlrec.core.trajectory import Summary
 from bowlrec.paper import paper_scene
 from bowlrec.spec import Options

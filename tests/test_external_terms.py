@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from bowlrec.archive.run_id import canonical_plan, run_id
+from bowlrec.core.arguments import kernel_params, use_closed_form
 from bowlrec.core.batch import pack_plans, run_batch
 from bowlrec.core.closed_form import closed_form_kernel
 from bowlrec.core.codes import LIFT_SAWICKI, PHASE_ROLL, PHASE_SLIDE, RECORD_RATE
@@ -39,7 +40,7 @@ from bowlrec.core.dynamics import (
     roll_accel,
     slide_accel,
 )
-from bowlrec.core.solver import kernel_call, kernel_params, solve, use_closed_form
+from bowlrec.core.solver import kernel_call, solve
 from bowlrec.core.terms import equation_terms, matvec
 from bowlrec.core.topography import natural_spline, spline_slope
 from bowlrec.spec import Scene

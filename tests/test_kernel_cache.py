@@ -56,7 +56,7 @@ def _names(paths: list[Path]) -> set[str]:
         ("core/trajectory.py", {"errors"}),  # pandas: under TYPE_CHECKING, and no bowlrec module
         ("core/vec.py", set()),  # `from . import _kernel_cache`: the check, no kernel's code
         ("core/recording.py", {"core/codes"}),
-        ("testing/rk4.py", {"core/codes", "core/dynamics", "core/plan", "core/solver"}),
+        ("testing/rk4.py", {"core/codes", "core/dynamics", "core/plan", "core/arguments"}),
     ],
 )
 def test_module_imports_are_the_bowlrec_modules_imported_at_module_level(
@@ -92,13 +92,16 @@ def test_kernel_dependencies_follow_imports_transitively() -> None:
     assert deps["recording"] == {"core/recording", "core/codes"}
     assert deps["dynamics"] == {"core/dynamics", "core/codes", "core/vec"}
     assert {"core/observe", "core/dopri5", "core/dynamics", "core/vec"} <= deps["integrator"]
-    # summary freezes trajectory's metric names; batch reaches Python-only modules via solver
+    # summary freezes trajectory's metric names; batch reaches the Python-only arguments (and
+    # through summary, trajectory), not solver or outcome
     assert {"core/trajectory", "errors"} <= deps["summary"]
-    assert {"core/solver", "core/outcome", "core/trajectory", "core/integrator"} <= deps["batch"]
+    assert {"core/arguments", "core/trajectory", "core/integrator"} <= deps["batch"]
+    assert not {"core/solver", "core/outcome"} & deps["batch"]
     assert not any("core/warm" in d for d in deps.values())
     testing = kernel_dependencies(PACKAGE / "testing")
     assert set(testing) == {"rk4"}
-    assert {"core/solver", "core/integrator", "core/dynamics"} <= _names(testing["rk4"])
+    assert {"core/arguments", "core/dynamics", "core/topography"} <= _names(testing["rk4"])
+    assert not {"core/solver", "core/integrator"} & _names(testing["rk4"])
 
 
 def test_the_cache_dir_is_the_one_numba_uses() -> None:

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bowlrec.core.arguments import kernel_params
 from bowlrec.core.codes import LIFT_SAWICKI
 from bowlrec.core.dynamics import external_accel, lift_coefficient_per_spin, roll_accel
-from bowlrec.core.solver import kernel_params, solve
+from bowlrec.core.solver import solve
 from bowlrec.spec import Scene
 
 R = 0.1085

@@ -36,8 +36,9 @@ from bowlrec.batch.chunks import ChunkTask, run_chunk
 from bowlrec.batch.context import WriteTarget
 from bowlrec.batch.fastprep import FastSweep
 from bowlrec.batch.table import table_columns
+from bowlrec.core.arguments import use_closed_form
 from bowlrec.core.batch import pack_plans
-from bowlrec.core.solver import run_plan, solve, use_closed_form
+from bowlrec.core.solver import run_plan, solve
 from bowlrec.core.summary import FLOAT_METRICS, INT_METRICS
 from bowlrec.provenance import environment
 from bowlrec.sinks import RunData

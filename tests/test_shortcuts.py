@@ -7,16 +7,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bowlrec.core.batch import EVENT_CAP, batch_metrics, pack_plans, run_batch
-from bowlrec.core.codes import RECORD_SUMMARY
-from bowlrec.core.plan import Plan
-from bowlrec.core.solver import (
+from bowlrec.core.arguments import (
     ORIENTATION_GAIN,
     needs_orientation,
     orientation_weight,
-    solve,
     use_closed_form,
 )
+from bowlrec.core.batch import EVENT_CAP, batch_metrics, pack_plans, run_batch
+from bowlrec.core.codes import RECORD_SUMMARY
+from bowlrec.core.plan import Plan
+from bowlrec.core.solver import solve
 from bowlrec.paper import paper_scene
 from bowlrec.spec import Scene
 

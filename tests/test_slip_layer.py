@@ -13,13 +13,14 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from bowlrec.core.arguments import initial_state, kernel_params
 from bowlrec.core.codes import PHASE_SLIDE, RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT
 from bowlrec.core.dopri5 import dense, dense_coeffs, stages
 from bowlrec.core.dynamics import P_SLAYER, radial_direction, rhs, roll_accel, slip, slip_rate
 from bowlrec.core.events import N_KINEMATIC, kinematic_values, may_cross
 from bowlrec.core.integrator import new_workspace
 from bowlrec.core.records import FrictionLaw, RunSettings
-from bowlrec.core.solver import initial_state, kernel_params, solve
+from bowlrec.core.solver import solve
 from bowlrec.paper import paper_scene
 from bowlrec.testing.scenes import random_plans
 

@@ -36,8 +36,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from bowlrec.core.arguments import slip_layer
 from bowlrec.core.codes import EVENT_KINDS, OUTCOMES
-from bowlrec.core.solver import slip_layer, solve
+from bowlrec.core.solver import solve
 from bowlrec.core.trajectory import Trajectory
 from bowlrec.spec import Scene
 

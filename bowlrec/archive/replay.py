@@ -68,10 +68,10 @@ def rerecord_is_exact(plan: Plan) -> bool:
     principal-moment anisotropy or center-of-mass offset of at least ~1e-3 (relative). A
     summary-only run of a uniform ball uses the closed form (or the integrator without the
     quaternion), and a nearly uniform one weights the quaternion's error less
-    (:func:`bowlrec.core.solver.orientation_weight`); recording weighs it fully, so the steps
+    (:func:`bowlrec.core.arguments.orientation_weight`); recording weighs it fully, so the steps
     and the last bits of the numbers differ.
     """
-    from bowlrec.core.solver import needs_orientation, orientation_weight, use_closed_form
+    from bowlrec.core.arguments import needs_orientation, orientation_weight, use_closed_form
 
     return not use_closed_form(plan) and needs_orientation(plan) and orientation_weight(plan) == 1.0
 

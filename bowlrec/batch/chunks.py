@@ -611,7 +611,8 @@ def _general_recorded(
     store: _Store,
     result: ChunkResult,
 ) -> None:
-    from bowlrec.core.solver import run_plan, use_closed_form
+    from bowlrec.core.arguments import use_closed_form
+    from bowlrec.core.solver import run_plan
 
     assert prep.plan is not None
     start = time.perf_counter()

@@ -20,8 +20,8 @@ edit of another module, numba would serve a stale copy. The rule, per directory 
   dropped when that hash differs from the one in the cache directory's stamp
   (``bowlrec-kernel-deps.json``); so are the entries of a module that is no kernel module. An
   edit of ``dynamics`` drops every kernel module importing it, directly or not; an edit of the
-  Python-only ``solver`` drops ``batch``, which imports it; an edit of a module no kernel module
-  reaches (``warm``) drops nothing.
+  Python-only ``arguments`` drops ``batch``, which imports it; an edit of a module no kernel
+  module reaches (``solver``, ``outcome``, ``warm``) drops nothing.
 
 The cache directory is the one numba picks for the directory's sources (``NUMBA_CACHE_DIR``,
 else ``__pycache__`` beside them, else numba's user-wide cache when that one is read-only): numba

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit, prange
 
+from .arguments import initial_state, kernel_params, needs_orientation, use_closed_form
 from .closed_form import closed_form_kernel
 from .codes import N_EVCOL, N_STATE
 from .integrator import simulate_kernel
 from .plan import Plan
-from .solver import initial_state, kernel_params, needs_orientation, use_closed_form
 from .summary import first_slide_x, released_rolling, summary_columns
 
 # columns of the batch result: status, end time (s), final state (11 values, see

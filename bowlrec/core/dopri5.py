@@ -122,7 +122,7 @@ def error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
     """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component.
 
     The quaternion's error counts with the weight ``q_weight`` (0 drops it): see
-    ``solver.orientation_weight``. (Three loops in component order, so the sum is the same.)"""
+    ``arguments.orientation_weight``. (Three loops in component order, so the sum is the same.)"""
     acc = 0.0
     for i in range(S_QW):
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))

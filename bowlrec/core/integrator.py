@@ -39,7 +39,7 @@ rolling) along the slaved direction (the unit u with ds/dt(u) parallel to +u, th
 of the exact dynamics). While sliding, a step is cut to end about where the linearly
 extrapolated slip reaches s_layer / 4, so steps do not jump across |s| = 0, where the Coulomb
 direction is singular (a curved approach could pass beside the root unseen). The error this
-introduces vanishes with s_layer; ``solver.slip_layer`` ties it to the tolerance (1e-5 m/s at
+introduces vanishes with s_layer; ``arguments.slip_layer`` ties it to the tolerance (1e-5 m/s at
 rtol 1e-9, where against s_layer = 1e-8 m/s it moves hook, pocket and slide of cases 5 and 18 by
 <= 4.6e-7 m, 3.2e-5 deg and 3.2e-8 m while taking 11-37x fewer right-hand sides).
 

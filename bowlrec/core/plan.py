@@ -80,7 +80,7 @@ class Plan:
     #: slip speed below which the paper's rule declares rolling (m/s)
     slip_threshold_mps: float = 0.01
     #: slip speed below which sliding friction acts along the slaved direction (m/s); None picks
-    #: a value from the tolerance (see ``bowlrec.core.solver.slip_layer``)
+    #: a value from the tolerance (see ``bowlrec.core.arguments.slip_layer``)
     slip_layer_mps: float | None = None
     #: hard limit on simulated time (s)
     max_time_s: float = 60.0

@@ -90,7 +90,8 @@ def _offset() -> Plan:
 
 
 def _closed_form() -> None:
-    from .solver import solve, use_closed_form
+    from .arguments import use_closed_form
+    from .solver import solve
 
     plan = _uniform()
     assert use_closed_form(plan)
@@ -99,7 +100,8 @@ def _closed_form() -> None:
 
 def _integrator(**changes: Any) -> Callable[[], None]:
     def run() -> None:
-        from .solver import solve, use_closed_form
+        from .arguments import use_closed_form
+        from .solver import solve
 
         plan = dataclasses.replace(_offset(), **changes)
         assert not use_closed_form(plan)
@@ -197,7 +199,7 @@ def _cpu_seconds() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
-def _expand(names: Iterable[str], extra: Mapping[str, Callable[[], object]]) -> list[str]:
+def expand(names: Iterable[str], extra: Mapping[str, Callable[[], object]]) -> list[str]:
     """The variants ``names`` stand for, in order, each once (``all``: ``extra`` too)."""
     out: list[str] = []
     for name in names:
@@ -220,7 +222,7 @@ def warm_up(*names: str, extra: Mapping[str, Callable[[], object]] | None = None
     WarmUp(names=('closed_form', 'integrator', 'batch_serial'), seconds=0.41, ...)
     """
     extra = dict(extra or {})
-    chosen = _expand(names or ("all",), extra)
+    chosen = expand(names or ("all",), extra)
     start, cpu = time.perf_counter(), _cpu_seconds()
     compiled0, loaded0 = kernel_counts()
     for name in chosen:
@@ -340,7 +342,7 @@ def main(
     args = parser.parse_args(argv)
     names = args.names or ["all"]
     try:
-        variants = _expand(names, extra or {})
+        variants = expand(names, extra or {})
     except ValueError as err:
         parser.error(str(err))
     if args.cache_lock:

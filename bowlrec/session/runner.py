@@ -289,7 +289,7 @@ class _Store:
         return a.load(rid) if a is not None and a.has_run(rid) else None
 
     def add(self, run: RunData, wall_time_s: float, records: dict[str, Any]) -> None:
-        from bowlrec.core.solver import use_closed_form
+        from bowlrec.core.arguments import use_closed_form
 
         a = self.archive
         if a is None:

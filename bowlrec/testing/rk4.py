@@ -20,7 +20,7 @@ scipy (in the ``test`` and ``bench`` extras), bowlrec itself does not.
 The kernels are cached on disk by numba (``bowlrec/testing/__pycache__``). numba keys a cached
 function on its own source file only, and these kernels compile bowlrec's dynamics into
 themselves: their entries are dropped when this module or a ``bowlrec`` module it imports
-(transitively: ``bowlrec.core.solver`` and what it imports) differs from the one they were built
+(transitively: ``bowlrec.core.arguments`` and what it imports) differs from the one they were built
 from, by the rule of ``bowlrec.core._kernel_cache`` for the core's own kernels.
 """
 
@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from bowlrec.core._kernel_cache import drop_stale_kernels
+from bowlrec.core.arguments import initial_state, kernel_params, needs_orientation
 from bowlrec.core.codes import (
     OUTCOMES,
     PHASE_ROLL,
@@ -49,7 +50,6 @@ from bowlrec.core.codes import (
 )
 from bowlrec.core.dynamics import P_R, P_SLAYER, ball_frame, rhs, roll_accel, slip
 from bowlrec.core.plan import Plan
-from bowlrec.core.solver import initial_state, kernel_params, needs_orientation
 
 __all__ = ["paper_scheme", "remove_slip_impulse", "result_dict", "summary_plan"]
 

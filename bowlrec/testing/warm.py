@@ -36,9 +36,9 @@ def warm_up_all(jobs: int = 1) -> WarmUp:
     """Load or compile every kernel variant (:func:`bowlrec.core.warm.warm_up` of ``all``) and
     the paper's RK4 scheme; ``jobs`` > 1: in that many processes at once."""
     if jobs > 1:
-        from bowlrec.core.warm import _expand, split, warm_up_in_processes
+        from bowlrec.core.warm import expand, split, warm_up_in_processes
 
-        return warm_up_in_processes(split(_expand(["all"], EXTRA), jobs), __name__)
+        return warm_up_in_processes(split(expand(["all"], EXTRA), jobs), __name__)
     return warm_up("all", extra=EXTRA)
 
 
