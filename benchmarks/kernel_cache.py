@@ -23,7 +23,8 @@ its own child processes included). Per round, in this order:
   time. The cache is
   then warm for the edited sources; the next round appends another line;
 * **check**: the cost of the check when nothing changed, in one fresh process (:data:`CHECK`):
-  its check of ``bowlrec/core`` at import (``LAST.seconds``), the median of 200 more calls of
+  its check of ``bowlrec/core`` at import (``LAST.seconds``; numba, which every kernel module
+  imports, imported before), the median of 200 more calls of
   :func:`~bowlrec.core._kernel_cache.drop_stale_kernels`, and, for comparison, one SHA-256 over
   the sources of ``bowlrec/core`` (what a whole-cache rule hashes).
 
@@ -31,6 +32,8 @@ Under a whole-cache rule (any edit of a ``bowlrec/core`` file drops every kernel
 ``bowlrec/core`` and of the RK4 scheme) each of these edits costs the cold compile: the "whole
 cache dropped" columns are the cold compile's. Medians over the rounds; the JSON has every run,
 with the load average before it. Writes ``kernel_cache.json`` and ``kernel_cache.md``.
+``--recheck`` measures the check again (no compile: it loads no kernel) into the existing
+results.
 """
 
 from __future__ import annotations
@@ -72,6 +75,7 @@ print(json.dumps({
 CHECK = """
 import hashlib, json, statistics, time
 from pathlib import Path
+import numba.core.caching  # imported by every kernel module anyway: not the check's cost
 from bowlrec.core import _kernel_cache as kc
 core = Path(kc.__file__).parent
 assert kc.LAST.checked and not kc.LAST.modules
@@ -135,10 +139,48 @@ def _drop_caches(src: Path) -> None:
         shutil.rmtree(cache)
 
 
-def measure(rounds: int) -> dict[str, Any]:
+def _copy() -> tuple[Path, Path]:
     tmp = Path(tempfile.mkdtemp(prefix="bowlrec-kernel-cache-"))
     src = tmp / "src"
     shutil.copytree(ROOT / "bowlrec", src / "bowlrec", ignore=shutil.ignore_patterns("__pycache__"))
+    return tmp, src
+
+
+def _check(src: Path) -> dict[str, Any]:
+    """The check's cost in a fresh process, after one that brought the stamp up to date."""
+    subprocess.run(
+        [sys.executable, "-c", "import bowlrec.core.vec"],
+        env={**os.environ, "PYTHONPATH": str(src)},
+        cwd=src,
+        check=True,
+    )
+    return _run(src, "-c", CHECK)
+
+
+def _medians(raw: dict[str, list[dict[str, Any]]]) -> dict[str, dict[str, float]]:
+    return {
+        key: {
+            k: statistics.median(run[k] for run in runs)
+            for k, v in runs[0].items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool)
+        }
+        for key, runs in raw.items()
+    }
+
+
+def recheck(res: dict[str, Any], rounds: int) -> dict[str, Any]:
+    """``res`` with its check runs measured again."""
+    tmp, src = _copy()
+    try:
+        res["raw"]["check"] = [_check(src) for _ in range(rounds)]
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    res["median"] = _medians(res["raw"])
+    return res
+
+
+def measure(rounds: int) -> dict[str, Any]:
+    tmp, src = _copy()
     raw: dict[str, list[dict[str, Any]]] = {}
 
     def add(key: str, value: dict[str, Any]) -> None:
@@ -155,21 +197,14 @@ def measure(rounds: int) -> dict[str, Any]:
             add("cold, --jobs 2", _run(src, *COMMAND, "--jobs", "2"))
             add("after --jobs 2", _run(src, "-c", WARM))
             add("warm", _run(src, "-c", WARM))
-            add("check", _run(src, "-c", CHECK))
+            add("check", _check(src))
             for module in EDITS:
                 path = src / "bowlrec" / "core" / f"{module}.py"
                 path.write_text(path.read_text() + f"# benchmark edit {r + 1}\n")
                 add(f"edit {module}", _run(src, "-c", WARM))
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    median = {
-        key: {
-            k: statistics.median(run[k] for run in runs)
-            for k, v in runs[0].items()
-            if isinstance(v, (int, float)) and not isinstance(v, bool)
-        }
-        for key, runs in raw.items()
-    }
+    median = _medians(raw)
     return {
         "rounds": rounds,
         "cpus": os.cpu_count(),
@@ -183,15 +218,17 @@ def measure(rounds: int) -> dict[str, Any]:
 def _markdown(res: dict[str, Any]) -> str:
     med, raw = res["median"], res["raw"]
     cold, warm = med["cold"], med["warm"]
+    loads = [run["load_before"] for runs in raw.values() for run in runs]
+    rounds = f"{res['rounds']} round" + ("s" if res["rounds"] > 1 else "")
     lines = [
         "# The kernels' numba cache: recompiling after an edit",
         "",
-        f"`python -m benchmarks.kernel_cache --rounds {res['rounds']}`: medians of "
-        f"{res['rounds']} rounds on {res['cpus']} cores ({res['machine']}, Python "
-        f"{res['python']}), each a fresh process in a scratch copy of the package warming every "
-        "kernel up (all variants of `bowlrec.core.warm` and the RK4 scheme); wall and CPU "
-        "seconds of the whole process. Another engineer's work shared the machine: CPU seconds "
-        "are the steadier measure.",
+        f"`python -m benchmarks.kernel_cache --rounds {res['rounds']}`: medians of {rounds} "
+        f"on {res['cpus']} cores ({res['machine']}, Python {res['python']}), each a fresh "
+        "process in a scratch copy of the package warming every kernel up (all variants of "
+        "`bowlrec.core.warm` and the RK4 scheme); wall and CPU seconds of the whole process. "
+        f"Load average before a run: {min(loads):.2f}-{max(loads):.2f} (CPU seconds are the "
+        "steadier measure on a shared machine).",
         "",
         "| after | kernel modules dropped | signatures compiled | wall (s) | CPU (s) "
         "| whole cache dropped: wall (s) | CPU (s) |",
@@ -249,7 +286,8 @@ def _markdown(res: dict[str, Any]) -> str:
     ]
     check = med["check"]
     lines += [
-        f"| first check in a fresh process (at import of `vec`) | {check['import_check_ms']:.2f} |",
+        "| first check in a fresh process (at import of `vec`; numba imported before) "
+        f"| {check['import_check_ms']:.2f} |",
         f"| each further check, median of 200 | {check['check_ms']:.2f} |",
         f"| one SHA-256 over `bowlrec/core/*.py` (a whole-cache rule's check) "
         f"| {check['whole_hash_ms']:.2f} |",
@@ -262,8 +300,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
+    parser.add_argument(
+        "--recheck", action="store_true", help="measure the check again into --out's results"
+    )
     args = parser.parse_args()
-    res = measure(args.rounds)
+    if args.recheck:
+        res = recheck(json.loads((args.out / "kernel_cache.json").read_text()), args.rounds)
+    else:
+        res = measure(args.rounds)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "kernel_cache.json").write_text(json.dumps(res, indent=1) + "\n")
     (args.out / "kernel_cache.md").write_text(_markdown(res))
