@@ -1,7 +1,7 @@
 """The test tiers from a clean checkout: how many tests each tier holds and how long it takes.
 
     python benchmarks/test_tiers.py [--workers 2] [--fresh-venv] [--slow] [--keep]
-        [--baseline JUNIT.xml] [--out benchmarks/results] [--render]
+        [--baseline JUNIT.xml [--baseline-note TEXT]] [--out benchmarks/results] [--render]
 
 Clones the current commit (``git clone`` of HEAD: commit first) into a temporary directory,
 then, in that clone:
@@ -16,7 +16,8 @@ then, in that clone:
 Each run writes a JUnit XML file: tests (passed, failed, skipped) and the sum of the test
 durations per tier come from it. ``--baseline``: the JUnit XML file of a run of the whole suite
 before the tiers; its durations are summed per tier of today's map of old test IDs
-(benchmarks/results/test_tiers.ids.tsv) for comparison.
+(benchmarks/results/test_tiers.ids.tsv) for comparison, beside that run's wall time (pytest's own:
+the testsuite's ``time``); ``--baseline-note`` says how it was made.
 
 By default the clone runs with this interpreter (its environment's packages) and
 ``PYTHONPATH`` set to the clone, so that the clone's ``bowlrec`` (and its empty numba cache) is
@@ -140,12 +141,18 @@ def _baseline(path: Path) -> dict[str, Any]:
             tier = "rewritten since by its owner"
         sums[tier] += float(case.get("time") or 0.0)
         counts[tier] += 1
-    return {t: {"tests": counts[t], "durations_s": round(sums[t], 1)} for t in sorted(counts)}
+    tiers = {t: {"tests": counts[t], "durations_s": round(sums[t], 1)} for t in sorted(counts)}
+    root = ET.parse(path).getroot()
+    suite = root if root.tag == "testsuite" else root.find("testsuite")
+    wall = float(suite.get("time") or "nan") if suite is not None else float("nan")
+    return {"tiers": tiers, "wall_s": round(wall, 1)}
 
 
 def _markdown(result: dict[str, Any]) -> str:
     runs = result["runs"]
     lines = [
+        "# The test tiers from a fresh clone",
+        "",
         f"Measured {result['date']} on {result['machine']}, {result['cores']} cores, "
         f"Python {result['python']}, commit {result['commit'][:10]} "
         f"(`python benchmarks/test_tiers.py{result['options']}`), load average at the start "
@@ -172,17 +179,21 @@ def _markdown(result: dict[str, Any]) -> str:
         f"2-core machine). The tiers `.ci/run` runs, warm cache: **{sum(ci):.0f} s** "
         "(target: 1,200 s, installs excluded; `.ci/run` also lints and type-checks).",
     ]
-    if result.get("baseline"):
+    base = result.get("baseline")
+    if base:
+        note = base.get("note", "")
         lines += [
             "",
-            "Baseline (the whole suite in one run before the tiers), its test durations summed "
-            "per tier of the same tests today (its first test's setup holds that run's kernel "
-            "warm-up; a test skipped there counts 0 s):",
+            "Baseline: the whole suite in one run before the tiers (what the README's command "
+            f"ran then){f', {note}' if note else ''}: **{base['wall_s']:.0f} s** (pytest's "
+            "own wall time, first kernel compile included). Its test durations summed per tier "
+            "of the same tests today (its first test's setup holds that run's kernel compile; a "
+            "test skipped there counts 0 s):",
             "",
             "| tier | tests | sum of durations (s) |",
             "|---|---|---|",
         ]
-        for tier, b in result["baseline"].items():
+        for tier, b in base["tiers"].items():
             lines.append(f"| {tier} | {b['tests']} | {b['durations_s']:.1f} |")
     return "\n".join(lines) + "\n"
 
@@ -194,6 +205,9 @@ def main() -> None:
     parser.add_argument("--slow", action="store_true", help="also run --tier slow")
     parser.add_argument("--keep", action="store_true", help="keep the clone (its logs, XML)")
     parser.add_argument("--baseline", type=Path, help="JUnit XML of a run before the tiers")
+    parser.add_argument(
+        "--baseline-note", default="", help="how the baseline was run (commit, machine, cache)"
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     parser.add_argument(
         "--render", action="store_true", help="only rewrite the .md from the .json (and --baseline)"
@@ -202,7 +216,7 @@ def main() -> None:
     if args.render:
         result = json.loads((args.out / "test_tiers.json").read_text())
         if args.baseline:
-            result["baseline"] = _baseline(args.baseline)
+            result["baseline"] = {**_baseline(args.baseline), "note": args.baseline_note}
             (args.out / "test_tiers.json").write_text(json.dumps(result, indent=2) + "\n")
         (args.out / "test_tiers.md").write_text(_markdown(result))
         return
@@ -252,7 +266,9 @@ def main() -> None:
         "options": options,
         "load_average": " ".join(f"{x:.2f}" for x in load),
         "runs": runs,
-        "baseline": _baseline(args.baseline) if args.baseline else None,
+        "baseline": (
+            {**_baseline(args.baseline), "note": args.baseline_note} if args.baseline else None
+        ),
     }
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "test_tiers.json").write_text(json.dumps(result, indent=2) + "\n")

@@ -302,12 +302,17 @@ def test_session_from_the_bearer_header_over_https_is_secure(tmp_path: Path) -> 
 
 
 def test_sessions_expire_and_are_not_needed_without_a_token(tmp_path: Path) -> None:
-    app = create_app(tmp_path / "archive", TOKEN, warm_up=False, session_ttl_s=0.2)
+    app = create_app(tmp_path / "archive", TOKEN, warm_up=False, session_ttl_s=60.0)
+    now = [1.8e9]  # the sessions' clock (UNIX s), moved by hand
+    app.state.bowlrec.sessions.clock = lambda: now[0]
     with TestClient(app, base_url="http://127.0.0.1") as client:
         assert client.post("/session", json={"token": TOKEN}).status_code == 200
+        now[0] += 59.5
         assert client.get("/balls").status_code == 200
-        time.sleep(0.3)
+        now[0] += 0.5  # the expiry itself
         assert client.get("/balls").status_code == 401
+        assert client.post("/session", json={"token": TOKEN}).status_code == 200  # a new one
+        assert client.get("/balls").status_code == 200
     app = create_app(tmp_path / "open", warm_up=False)
     with TestClient(app, base_url="http://127.0.0.1") as client:
         r = client.post("/session")

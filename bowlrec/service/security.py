@@ -28,7 +28,7 @@ import secrets
 import shlex
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from urllib.parse import urlsplit
 
 from starlette.datastructures import Headers
@@ -76,12 +76,19 @@ def token_matches(given: str, token: str | None) -> bool:
 
 
 class SessionStore:
-    """Cookie sessions in memory: the SHA-256 of each session ID and its expiry."""
+    """Cookie sessions in memory: the SHA-256 of each session ID and its expiry. ``ttl_s``: a
+    session's lifetime in s; ``clock``: the time now as a UNIX time in s."""
 
-    def __init__(self, ttl_s: float = DEFAULT_SESSION_TTL_S, max_sessions: int = MAX_SESSIONS):
+    def __init__(
+        self,
+        ttl_s: float = DEFAULT_SESSION_TTL_S,
+        max_sessions: int = MAX_SESSIONS,
+        clock: Callable[[], float] = time.time,
+    ):
         self.ttl_s = ttl_s
         self.max_sessions = max_sessions
-        self._expiry: dict[str, float] = {}  # sha256(id) -> time.time() of expiry
+        self.clock = clock
+        self._expiry: dict[str, float] = {}  # sha256(id) -> clock() of expiry
         self._mutex = threading.Lock()
 
     @staticmethod
@@ -91,7 +98,7 @@ class SessionStore:
     def open(self) -> tuple[str, float]:
         """A new session: (its ID for the cookie, its expiry as a UNIX time)."""
         session_id = secrets.token_urlsafe(32)
-        expires = time.time() + self.ttl_s
+        expires = self.clock() + self.ttl_s
         with self._mutex:
             self._purge()
             while len(self._expiry) >= self.max_sessions:
@@ -107,7 +114,7 @@ class SessionStore:
             expires = self._expiry.get(self._key(session_id))
             if expires is None:
                 return False
-            if expires <= time.time():
+            if expires <= self.clock():
                 del self._expiry[self._key(session_id)]
                 return False
             return True
@@ -125,7 +132,7 @@ class SessionStore:
             return len(self._expiry)
 
     def _purge(self) -> None:
-        now = time.time()
+        now = self.clock()
         for key in [k for k, t in self._expiry.items() if t <= now]:
             del self._expiry[key]
 
