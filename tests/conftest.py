@@ -215,8 +215,8 @@ def warm_up_kernels(jobs: int = 1) -> WarmUp:
     """Run every compiled kernel once (:func:`bowlrec.testing.warm.warm_up_all`: the integrator
     in each recording mode and observing, the closed form, the many-delivery batch kernel serial
     and parallel, and the paper's RK4 scheme when scipy is installed); ``jobs`` > 1: in that many
-    fresh processes at once, which compile a cold cache in about 0.7 of the time on 2 cores
-    (``benchmarks/results/kernel_cache.md``) and cost about a second when it is warm."""
+    fresh processes at once, which compile a cold cache in about 0.8 of the time on 2 cores
+    (``benchmarks/results/kernel_cache.md``) and load a warm one in the same ~2 s as one."""
     from bowlrec.testing.warm import warm_up_all
 
     return warm_up_all(jobs)

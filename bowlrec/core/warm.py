@@ -51,13 +51,15 @@ __all__ = [
     "VARIANTS",
     "WarmUp",
     "kernel_counts",
+    "offset_plan",
     "split",
+    "uniform_plan",
     "warm_up",
     "warm_up_in_processes",
 ]
 
 
-def _uniform() -> Plan:
+def uniform_plan() -> Plan:
     """A uniform ball on a two-zone oil pattern, summary only (the closed form applies)."""
     return Plan(
         mass_kg=6.8,
@@ -78,10 +80,10 @@ def _uniform() -> Plan:
     )
 
 
-def _offset() -> Plan:
+def offset_plan() -> Plan:
     """An asymmetric ball with its center of mass off the center and tilted spin (integrator)."""
     return dataclasses.replace(
-        _uniform(),
+        uniform_plan(),
         inertia_per_mass_m2=np.array([0.066, 0.067, 0.068]) ** 2,
         r_delta_body_m=np.array([0.0, -0.0005, 0.0]),
         q0=np.array([0.9, 0.1, 0.3, 0.2]) / np.linalg.norm([0.9, 0.1, 0.3, 0.2]),
@@ -93,7 +95,7 @@ def _closed_form() -> None:
     from .arguments import use_closed_form
     from .solver import solve
 
-    plan = _uniform()
+    plan = uniform_plan()
     assert use_closed_form(plan)
     solve(plan)
 
@@ -103,7 +105,7 @@ def _integrator(**changes: Any) -> Callable[[], None]:
         from .arguments import use_closed_form
         from .solver import solve
 
-        plan = dataclasses.replace(_offset(), **changes)
+        plan = dataclasses.replace(offset_plan(), **changes)
         assert not use_closed_form(plan)
         solve(plan)
 
@@ -113,14 +115,14 @@ def _integrator(**changes: Any) -> Callable[[], None]:
 def _observe() -> None:
     from .solver import solve
 
-    solve(_offset(), stations_m=(4.0, 12.0), turns=True)
+    solve(offset_plan(), stations_m=(4.0, 12.0), turns=True)
 
 
 def _batch(parallel: bool) -> Callable[[], None]:
     def run() -> None:
         from .batch import pack_plans, run_batch
 
-        run_batch(pack_plans([_uniform(), _offset()]), parallel=parallel)
+        run_batch(pack_plans([uniform_plan(), offset_plan()]), parallel=parallel)
 
     return run
 
@@ -213,16 +215,25 @@ def expand(names: Iterable[str], extra: Mapping[str, Callable[[], object]]) -> l
     return out
 
 
-def warm_up(*names: str, extra: Mapping[str, Callable[[], object]] | None = None) -> WarmUp:
+def warm_up(
+    *names: str,
+    extra: Mapping[str, Callable[[], object]] | None = None,
+    jobs: int = 1,
+    module: str = __name__,
+) -> WarmUp:
     """Load or compile the kernel variants ``names`` (variants or groups, see the module doc;
     none: ``all``). ``extra``: more variants (name -> a function that runs them once), run when
-    named or when ``all`` is. Returns what it did (:class:`WarmUp`).
+    named or when ``all`` is. ``jobs`` > 1: in that many fresh processes at once
+    (:func:`warm_up_in_processes` of ``python -m module``, which must know the same ``extra``).
+    Returns what it did (:class:`WarmUp`).
 
     >>> warm_up("service")  # doctest: +SKIP
     WarmUp(names=('closed_form', 'integrator', 'batch_serial'), seconds=0.41, ...)
     """
     extra = dict(extra or {})
     chosen = expand(names or ("all",), extra)
+    if jobs > 1:
+        return warm_up_in_processes(split(chosen, jobs), module)
     start, cpu = time.perf_counter(), _cpu_seconds()
     compiled0, loaded0 = kernel_counts()
     for name in chosen:
@@ -239,8 +250,9 @@ def warm_up(*names: str, extra: Mapping[str, Callable[[], object]] | None = None
 
 #: variants that share compiled signatures: a part of :func:`split` runs a unit whole
 _UNITS = (("batch_serial", "batch_parallel"), ("integrator", "steps", "rate"))
-#: rough CPU seconds of a variant's first compile after the ones before it in ``all``
-#: (benchmarks/results/kernel_cache.md); a variant not listed counts 10
+#: rough CPU seconds of a variant's first compile after the ones before it in ``all`` (estimates
+#: for balancing the parts; what the split achieves is in benchmarks/results/kernel_cache.md); a
+#: variant not listed counts 10
 _COST = {
     "batch_serial": 40,
     "batch_parallel": 60,
@@ -342,15 +354,12 @@ def main(
     args = parser.parse_args(argv)
     names = args.names or ["all"]
     try:
-        variants = expand(names, extra or {})
+        expand(names, extra or {})
     except ValueError as err:
         parser.error(str(err))
     if args.cache_lock:
         _lock_cache_writes(args.cache_lock)
-    if args.jobs > 1:
-        result = warm_up_in_processes(split(variants, args.jobs), module)
-    else:
-        result = warm_up(*names, extra=extra)
+    result = warm_up(*names, extra=extra, jobs=args.jobs, module=module)
     print(json.dumps(result.as_dict()) if args.json else result, flush=True)
     return 0
 

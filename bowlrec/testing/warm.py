@@ -14,16 +14,15 @@ from __future__ import annotations
 import importlib.util
 from collections.abc import Callable
 
-from bowlrec.core.warm import WarmUp, main, warm_up
+from bowlrec.core.warm import WarmUp, main, offset_plan, warm_up
 
 __all__ = ["EXTRA", "warm_up_all"]
 
 
 def _rk4() -> None:
-    from bowlrec.core.warm import _offset
     from bowlrec.testing.rk4 import paper_scheme
 
-    paper_scheme(_offset(), dt=1e-2)
+    paper_scheme(offset_plan(), dt=1e-2)
 
 
 #: the kernels of bowlrec.testing by name (none without scipy)
@@ -35,11 +34,7 @@ EXTRA: dict[str, Callable[[], object]] = (
 def warm_up_all(jobs: int = 1) -> WarmUp:
     """Load or compile every kernel variant (:func:`bowlrec.core.warm.warm_up` of ``all``) and
     the paper's RK4 scheme; ``jobs`` > 1: in that many processes at once."""
-    if jobs > 1:
-        from bowlrec.core.warm import expand, split, warm_up_in_processes
-
-        return warm_up_in_processes(split(expand(["all"], EXTRA), jobs), __name__)
-    return warm_up("all", extra=EXTRA)
+    return warm_up("all", extra=EXTRA, jobs=jobs, module=__name__)
 
 
 if __name__ == "__main__":
