@@ -5,8 +5,9 @@
 1. **In process** (kernels loaded): ``bowlrec.bowling.aim.aim`` on the two example bowler
    scenes started away from their aimed shots (target board 10 and 11 at the arrows, 17 mph),
    once per free variable (target, launch, laydown, speed) and for the two-variable
-   searches (speed + target, laydown + target); median of ``--repeats`` runs each, with the
-   shots tried. Target: <= 0.2 s.
+   searches (speed + target, laydown + target, and laydown + launch with the breakpoint on the
+   pattern's rule-of-31 board); median of ``--repeats`` runs each, with the shots tried.
+   Target: <= 0.2 s.
 2. **Cold**: the command ``bowlrec aim SCENE`` in a fresh process (interpreter start, imports,
    kernels loaded from numba's cache), median of 3. Target: <= 1.5 s.
 3. **Release scatter**: ``release_scatter`` with 2,000 repeats of the pocket example (pro
@@ -39,11 +40,12 @@ UNAIMED = {
     "pocket-right": {"target_board_at_arrows": 11.0, "speed_mph": 17.0},
 }
 SEARCHES = [["target"], ["launch"], ["laydown"], ["speed"], ["speed", "target"],
-            ["laydown", "target"]]  # fmt: skip
+            ["laydown", "target"], ["laydown", "launch", "rule-of-31"]]  # fmt: skip
 
 
 def in_process(repeats: int) -> list[dict[str, Any]]:
     from bowlrec.bowling.aim import aim
+    from bowlrec.bowling.calibration import breakpoint_board_for, pattern_length_ft
     from bowlrec.bowling.scene import BowlerScene
 
     rows = []
@@ -52,17 +54,23 @@ def in_process(repeats: int) -> list[dict[str, Any]]:
         data["delivery"].update(UNAIMED[name])
         scene = BowlerScene.model_validate(data)
         aim(scene)  # load the kernels
-        for vary in SEARCHES:
+        for search in SEARCHES:
+            vary = [v for v in search if v != "rule-of-31"]
+            board = (
+                breakpoint_board_for(pattern_length_ft(scene.pattern_model()))
+                if "rule-of-31" in search
+                else None
+            )
             times, result = [], None
             for _ in range(repeats):
                 t0 = time.perf_counter()
-                result = aim(scene, vary)
+                result = aim(scene, vary, breakpoint_board=board)
                 times.append(time.perf_counter() - t0)
             assert result is not None
             rows.append(
                 {
                     "scene": name,
-                    "vary": "+".join(vary),
+                    "vary": "+".join(search),
                     "found": result.found,
                     "entry_board": result.shot.entry_board,
                     "entry_angle_deg": result.shot.entry_angle_deg,

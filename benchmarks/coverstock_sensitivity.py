@@ -232,7 +232,7 @@ def markdown(doc: dict[str, Any], covers: list[Row], grits: list[Row]) -> str:
         f"{s['axis_tilt_deg']:g} deg, pattern `{s['pattern']}` on a {s['lane_width_in']:g} in "
         f"lane; ball {s['coverstock']} at {surface_text(s['surface'])}. Reference ball "
         f"{REFERENCE_COVERSTOCK} at {REFERENCE_GRIT} grit: mu_oil {_mu(doc['mu_oil'])}, mu_dry "
-        f"{_mu(doc['mu_dry'])} (the paper's levels; also every ball under `cover_model: "
+        f"{_mu(doc['mu_dry'])} (the calibrated levels; also every ball under `cover_model: "
         f'"none"`: breakpoint board {_num(doc["no_cover_model"]["breakpoint_board"])} at '
         f"{_num(doc['no_cover_model']['breakpoint_ft'])} ft, entry board "
         f"{_num(doc['no_cover_model']['entry_board'])} at "

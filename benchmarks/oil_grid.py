@@ -2,9 +2,9 @@
 
     python -m benchmarks.oil_grid [--tracks 300] [--seed 0] [--out benchmarks/results]
 
-**Tracks.** A right-hander's house shot (:class:`~bowlrec.bowling.scene.BowlerScene` defaults:
-17 mph, 300 rpm, 45 deg rotation, laydown board 15, target board 10 at the arrows, on
-``house_shot_approx``) repeated with the ``pro`` release scatter
+**Tracks.** A right-hander's house shot (``examples/bowler/house-shot-right.json``: a
+tweener's 17.5 mph, 350 rpm, 45 deg rotation on the rule-of-31 line of ``house_shot_approx``,
+laydown board 20.5 over board 15.8 at the arrows) repeated with the ``pro`` release scatter
 (:mod:`bowlrec.bowling.variance`), each repeat simulated with its samples every 5 ms: the
 contact point's path (x, y). The tracks are simulated once on the fresh lane and applied shot
 after shot; the wear's feedback on the tracks (a worn lane hooks a little earlier) is left out
@@ -22,8 +22,7 @@ those cells (lifted less what carrydown lays back in them). Then the calibrated 
 
 **Resolution cost.** The lane after 40 shots, worn on a 0.25 ft x 0.25 board grid (the
 reference), is coarsened to other cells (volume conserved) and turned into friction with the
-session mapping (power ramp, reference film = the fresh pattern's largest film in its first
-10 ft, :func:`~bowlrec.bowling.oil_transfer.heads_film_um`). For 60 repeats of the shot: the
+session mapping (the calibrated mapping, docs/calibration.md). For 60 repeats of the shot: the
 kernel time per delivery (summary only and recorded at 5 ms; best of 3), the zone events, the
 slide <-> roll changes, the right-hand sides, and the entry board and breakpoint against the
 reference grid. Also μ quantised to a few levels (on the 1 ft x 1 board grid) before the grid
@@ -53,7 +52,6 @@ from bowlrec.bowling.oil_transfer import (
     TransferModel,
     absorb_between_shots,
     apply_track,
-    heads_film_um,
     resample_grid,
     session_oil_grid,
     track_coverage,
@@ -95,12 +93,18 @@ class Track:
 
 
 def house_scene() -> BowlerScene:
-    return BowlerScene(pattern=PATTERN)
+    """The house-shot example: a tweener on the rule-of-31 line of ``PATTERN``."""
+    path = Path(__file__).resolve().parents[1] / "examples" / "bowler" / "house-shot-right.json"
+    scene = BowlerScene.model_validate_json(path.read_text())
+    assert scene.pattern == PATTERN
+    return scene
 
 
 def session_mapping(fresh: OilGrid, width_m: float) -> OilFrictionMapping:
-    """Power ramp (Fresh Oil's f^0.40) referred to the fresh pattern's heads film."""
-    return OilFrictionMapping(ramp="power", oiled_at_or_above_um=heads_film_um(fresh, width_m))
+    """The sessions' mapping: the calibrated one (its power ramp below the calibrated film
+    makes a worn film grip more); ``fresh`` and ``width_m`` do not enter it."""
+    del fresh, width_m
+    return OilFrictionMapping()
 
 
 def _lane(scene: BowlerScene, friction: GridFriction) -> Lane:
@@ -432,8 +436,8 @@ def _markdown(d: dict[str, Any]) -> str:
         "",
         "## Calibration",
         "",
-        f"Tracks: {d['n_tracks']} repeats of the house shot ({PATTERN}, target board 10 at the "
-        f"arrows) with the `pro` release scatter, recorded every 5 ms; "
+        f"Tracks: {d['n_tracks']} repeats of the house-shot example ({PATTERN}, a tweener's "
+        "rule-of-31 line) with the `pro` release scatter, recorded every 5 ms; "
         f"{c['shots_kegel']} shots = {KEGEL_GAMES} games x {DELIVERIES_PER_GAME} deliveries. "
         f"Area of play: {c['area_of_play_cells']} cells of 1 ft x 1 board, boards "
         f"{c['area_of_play_boards'][0]}-{c['area_of_play_boards'][1]}, "
@@ -486,8 +490,7 @@ def _markdown(d: dict[str, Any]) -> str:
         "",
         f"{d['n_cost']} repeats of the shot on the lane after {d['worn_shots']} shots (worn on "
         f"the {REFERENCE_CELL[0]:g} ft x {REFERENCE_CELL[1]:g} board grid, coarsened with the "
-        "volume conserved), session mapping (power "
-        "ramp 0.4, reference film = the fresh pattern's largest film in its first 10 ft, "
+        "volume conserved), session mapping (the calibrated mapping: power ramp 0.4 below "
         f"{d['reference_film_um']:.3f} µm). Kernel time: median per delivery of the best of 3. "
         f"Differences: against the worn {REFERENCE_CELL[0]:g} ft x {REFERENCE_CELL[1]:g} board "
         "grid, in boards (entry at the head pin "

@@ -54,9 +54,22 @@ def bowler_layer_warning(provenance: dict[str, Any]) -> str | None:
         current = False
     if current:
         return None
+    try:
+        version = int(made_with) if made_with is not None else 1
+    except (TypeError, ValueError):
+        version = 1
+    changes = []
+    if version < 2:
+        changes.append(
+            "its PAP was placed at the other end of the spin axis, so the layout and "
+            "side-weight labels of that scene describe the mirror-side ball"
+        )
+    changes.append(
+        "its oil became friction at the paper's 0.04 / 0.20 rather than the calibrated levels, "
+        "and its drilled holes removed whole cylinders"
+    )
     return (
-        f"made with bowler layer {made_with or '1'} (current: {BOWLER_LAYER_VERSION}): "
-        "if this run came from a bowler scene, its PAP was placed at the other end of the spin "
-        "axis, so the layout and side-weight labels of that scene describe the mirror-side "
-        "ball; the physics of the stored scene is unaffected"
+        f"made with bowler layer {made_with or '1'} (current: {BOWLER_LAYER_VERSION}): if this "
+        f"run came from a bowler scene, {'; '.join(changes)}; the physics of the stored scene "
+        "is unaffected"
     )

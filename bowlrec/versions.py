@@ -15,6 +15,8 @@ PHYSICS_VERSION = "frohlich2004-dp54-3"
 #: version of the bowlers' layer (spec sheet, layout and PAP, delivery -> physical scene); part
 #: of every run's provenance. Version 2 places the PAP at +omega_hat for a right-hander, grip
 #: facing the bowler at release; in runs stored with 1 or without the field the PAP is at the
-#: other end of the axis, so their layout and side-weight labels describe the mirror-side ball
-#: (:func:`bowlrec.provenance.bowler_layer_warning`).
-BOWLER_LAYER_VERSION = 2
+#: other end of the axis, so their layout and side-weight labels describe the mirror-side ball.
+#: Version 3 maps oil to the calibrated friction (docs/calibration.md) where 2 used the paper's
+#: 0.04 / 0.20, and drills the sphere's part of each hole where 2 removed the whole cylinder
+#: (:func:`bowlrec.provenance.bowler_layer_warning` says which applies to a stored run).
+BOWLER_LAYER_VERSION = 3

@@ -42,6 +42,9 @@ from bowlrec.units import FT_M, IN_M
 W42 = 42 * IN_M  # the paper's lane width (m)
 W415 = 41.5 * IN_M  # USBC nominal width (m)
 
+#: the paper's two levels (0.04 / 0.20): the mechanism tests below are written in them
+PAPER = OilFrictionMapping.paper()
+
 
 def _step(a: str, b: str, loads: int, mics: float, s: float, e: float, **kw: Any) -> KegelStep:
     return KegelStep(
@@ -328,12 +331,12 @@ def test_board_one_is_at_the_right_gutter() -> None:
             distance_ft=10.0,
             forward=[_step(notation, notation, 1, 50.0, 0.0, 10.0)],
         )
-        f = pattern_friction(p, lane_width_m=W415)
+        f = pattern_friction(p, lane_width_m=W415, mapping=PAPER)
         assert mu_at(build_friction_grid(f, W415), 1.0, 0.5 * (y_lo + y_hi)) == 0.04
         assert mu_at(build_friction_grid(f, W415), 1.0, W415 / 2) == 0.20
     # a 3R-5R band covers y in [2w, 5w]
     p = KegelPattern(name="band", distance_ft=10.0, forward=[_step("3R", "5R", 1, 50, 0, 10)])
-    f = pattern_friction(p, lane_width_m=W415)
+    f = pattern_friction(p, lane_width_m=W415, mapping=PAPER)
     np.testing.assert_allclose(f.y_edges_m, [2 * w, 5 * w], rtol=1e-15)
     np.testing.assert_allclose(f.x_edges_m, [10 * FT_M], rtol=1e-15)
     assert f.mu == [[0.2, 0.04, 0.2], [0.2, 0.2, 0.2]]
@@ -342,40 +345,44 @@ def test_board_one_is_at_the_right_gutter() -> None:
 def test_outside_the_lane_continues_the_edge_cells() -> None:
     """Oil from the foul line on every board: no break point at x = 0 or at the gutters."""
     p = KegelPattern(name="full", distance_ft=30.0, forward=[_step("1L", "1R", 1, 50, 0, 30)])
-    f = pattern_friction(p, lane_width_m=W42)
+    f = pattern_friction(p, lane_width_m=W42, mapping=PAPER)
     assert f.x_edges_m == [30 * FT_M] and f.y_edges_m == []
     assert f.mu == [[0.04], [0.2]]
     # a pattern that reaches past the head pin puts no break point there
     p = KegelPattern(name="long", distance_ft=60.0, forward=[_step("2L", "2R", 1, 50, 0, 60)])
-    f = pattern_friction(p, lane_width_m=W42, length_m=50 * FT_M)
+    f = pattern_friction(p, lane_width_m=W42, length_m=50 * FT_M, mapping=PAPER)
     assert f.x_edges_m == []
 
 
 def test_paper_typical_preset_equals_typical_friction() -> None:
     """The preset's friction grid is exactly the spec's TypicalFriction grid on 42 in."""
-    f = pattern_friction(preset("paper_typical"), lane_width_m=W42)
+    f = pattern_friction(preset("paper_typical"), lane_width_m=W42, mapping=PAPER)
     a = build_friction_grid(f, W42)
     b = build_friction_grid(TypicalFriction(), W42)
     np.testing.assert_allclose(a.x_edges_m, b.x_edges_m, rtol=0, atol=1e-15)
     np.testing.assert_allclose(a.y_edges_m, b.y_edges_m, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(a.mu, b.mu)
     # and on the USBC width, the band is still the central 80 %
-    a = build_friction_grid(pattern_friction(preset("paper_typical"), lane_width_m=W415), W415)
+    a = build_friction_grid(
+        pattern_friction(preset("paper_typical"), lane_width_m=W415, mapping=PAPER), W415
+    )
     np.testing.assert_allclose(a.y_edges_m, [0.1 * W415, 0.9 * W415], rtol=1e-14)
 
 
-def test_mapping_defaults_are_the_papers_two_levels() -> None:
-    """The default mapping gives the paper's two levels to a ball without coverstock or
+def test_paper_mapping_is_the_papers_two_levels() -> None:
+    """OilFrictionMapping.paper() gives the paper's two levels to a ball without coverstock or
     surface and to the reference ball (reactive_solid at 1000 grit); cover_model 'none' gives
-    them to every ball."""
-    m = OilFrictionMapping()
-    assert (m.mu_oil, m.mu_dry, m.cover_model) == (0.04, 0.20, "ranked")
+    them to every ball. The default mapping is the calibrated one (tests/test_calibration.py)."""
+    m = PAPER
+    assert (m.mu_oil, m.mu_dry, m.cover_model, m.oiled_at_or_above_um) == (
+        0.04, 0.20, "ranked", 0.0
+    )  # fmt: skip
     films = np.array([0.0, 1e-9, 0.5, 100.0])
-    np.testing.assert_array_equal(mu_of_film(films), [0.20, 0.04, 0.04, 0.04])
+    np.testing.assert_array_equal(mu_of_film(films, m), [0.20, 0.04, 0.04, 0.04])
     np.testing.assert_array_equal(
         mu_of_film(films, m, "reactive_solid", 1000), [0.20, 0.04, 0.04, 0.04]
     )
-    none = OilFrictionMapping(cover_model="none")
+    none = OilFrictionMapping.paper(cover_model="none")
     for cover in ("polyester", "urethane", "reactive_solid", "particle"):
         for surface in (None, 500, "polished"):
             np.testing.assert_array_equal(
@@ -386,9 +393,10 @@ def test_mapping_defaults_are_the_papers_two_levels() -> None:
 def test_mapping_ramp_and_coverstock_factors() -> None:
     """Explicit factors on top of cover_model 'none': each multiplies its level, a coverstock
     without an entry keeps the mapping's levels."""
-    m = OilFrictionMapping(
+    m = OilFrictionMapping.paper(
         dry_at_or_below_um=1.0,
         oiled_at_or_above_um=3.0,
+        ramp="linear",
         cover_model="none",
         dry_factor={"particle": 1.5},
         oil_factor={"particle": 2.0, "polyester": 0.5},
@@ -419,9 +427,9 @@ def test_film_thickness() -> None:
 
 def test_ramp_mapping_gives_a_finer_grid() -> None:
     p = preset("kegel_chromium_6742")
-    coarse = pattern_friction(p, lane_width_m=W415)
+    coarse = pattern_friction(p, lane_width_m=W415, mapping=PAPER)
     fine = pattern_friction(
-        p, lane_width_m=W415, mapping=OilFrictionMapping(oiled_at_or_above_um=8)
+        p, lane_width_m=W415, mapping=OilFrictionMapping.paper(oiled_at_or_above_um=8)
     )
     assert len(fine.x_edges_m) > len(coarse.x_edges_m)
     assert {v for row in coarse.mu for v in row} == {0.04, 0.2}
@@ -432,6 +440,7 @@ def test_mirror_friction() -> None:
     f = pattern_friction(
         KegelPattern(name="r", distance_ft=10.0, forward=[_step("1R", "3R", 1, 50, 0, 10)]),
         lane_width_m=W42,
+        mapping=PAPER,
     )
     g = build_friction_grid(mirror_friction(f, W42), W42)
     assert mu_at(g, 1.0, W42 - 0.01) == 0.04 and mu_at(g, 1.0, 0.01) == 0.2
@@ -499,7 +508,7 @@ def _with_friction(scene: Scene, friction: GridFriction | TypicalFriction) -> Sc
 def test_typical_preset_simulates_like_typical_friction(case: int) -> None:
     """Paper cases 8 and 9 (typical pattern, hooking) on the preset's grid: same summary."""
     scene = paper_scene(case)
-    grid = pattern_friction(preset("paper_typical"), lane_width_m=scene.lane.width_m)
+    grid = pattern_friction(preset("paper_typical"), lane_width_m=scene.lane.width_m, mapping=PAPER)
     a = bowlrec.simulate(scene).summary
     b = bowlrec.simulate(_with_friction(scene, grid)).summary
     assert a.outcome == b.outcome == "pins"
@@ -509,7 +518,7 @@ def test_typical_preset_simulates_like_typical_friction(case: int) -> None:
 
 
 def test_simulate_on_an_oil_pattern_lane() -> None:
-    lane = pattern_lane(preset("kegel_chromium_6742"), width_m=W42)
+    lane = pattern_lane(preset("kegel_chromium_6742"), width_m=W42, mapping=PAPER)
     assert lane.width_m == W42 and isinstance(lane.friction, GridFriction)
     traj = bowlrec.simulate(_with_friction(paper_scene(9), lane.friction))
     s = traj.summary

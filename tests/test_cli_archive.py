@@ -94,7 +94,7 @@ def test_runs_list_filters_show_export_and_rm(tmp_path: Path) -> None:
     assert shown["scene"]["delivery"]["speed_mps"] == 7.0
     assert [e["kind"] for e in shown["events"]][-1] == "pins"
     assert shown["provenance"]["format_version"] == "2.0"
-    assert shown["provenance"]["bowler_layer_version"] == "2" and shown["warnings"] == []
+    assert shown["provenance"]["bowler_layer_version"] == "3" and shown["warnings"] == []
     h5 = tmp_path / "out.h5"
     _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(h5))
     assert h5.stat().st_size > 0

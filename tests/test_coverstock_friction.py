@@ -48,10 +48,12 @@ REACTIVES: tuple[Coverstock, ...] = ("reactive_solid", "reactive_pearl", "reacti
 
 
 def _scene(coverstock: Coverstock, surface: Surface, **mapping: Any) -> BowlerScene:
-    """The default bowler scene with another ball cover / surface (and mapping fields)."""
+    """The default bowler scene with another ball cover / surface, at the paper's levels (and
+    mapping fields): the cover and surface mechanism, written in the paper's numbers."""
     base = BowlerScene()
     ball = {**base.ball.model_dump(), "coverstock": coverstock, "surface": surface}
-    return BowlerScene.model_validate({**base.model_dump(), "ball": ball, "oil_friction": mapping})
+    levels = OilFrictionMapping.paper(**mapping).model_dump()
+    return BowlerScene.model_validate({**base.model_dump(), "ball": ball, "oil_friction": levels})
 
 
 def _report(scene: BowlerScene) -> Any:
@@ -63,7 +65,7 @@ def _report(scene: BowlerScene) -> Any:
 
 
 def test_the_reference_ball_sees_the_papers_levels_exactly() -> None:
-    m = OilFrictionMapping()
+    m = OilFrictionMapping.paper()
     assert (REFERENCE_COVERSTOCK, REFERENCE_GRIT) == ("reactive_solid", 1000)
     assert m.cover_factors(REFERENCE_COVERSTOCK) == (1.0, 1.0)
     assert m.surface_factors(REFERENCE_GRIT) == (1.0, 1.0)
@@ -71,18 +73,21 @@ def test_the_reference_ball_sees_the_papers_levels_exactly() -> None:
     assert m.levels() == m.levels(None, None) == (0.20, 0.04)  # no ball given: no factor
     # its friction grid on the paper's typical pattern is the one without any ball, bit for bit
     p = preset("paper_typical")
-    a = pattern_friction(p, lane_width_m=W415, coverstock="reactive_solid", surface=1000)
-    b = pattern_friction(p, lane_width_m=W415)
+    a = pattern_friction(p, lane_width_m=W415, coverstock="reactive_solid", surface=1000, mapping=m)
+    b = pattern_friction(p, lane_width_m=W415, mapping=m)
     assert a.mu == b.mu and a.x_edges_m == b.x_edges_m and a.y_edges_m == b.y_edges_m
     assert {v for row in a.mu for v in row} == {0.04, 0.2}
+    # the calibrated default treats the reference ball the same way: its own levels, exactly
+    c = OilFrictionMapping()
+    assert c.levels(REFERENCE_COVERSTOCK, REFERENCE_GRIT) == (c.mu_dry, c.mu_oil)
 
 
 def test_cover_model_none_is_the_same_friction_for_every_ball() -> None:
     """'none' (no explicit entries) gives every coverstock and surface the mapping's levels:
     the friction grid of a ball-less call, exactly."""
-    none = OilFrictionMapping(cover_model="none")
+    none = OilFrictionMapping.paper(cover_model="none")
     p = preset("kegel_chromium_6742")
-    plain = pattern_friction(p, lane_width_m=W415).mu
+    plain = pattern_friction(p, lane_width_m=W415, mapping=OilFrictionMapping.paper()).mu
     for cover in COVERSTOCKS:
         for surface in (500, 4000, "polished"):
             assert none.levels(cover, surface) == (0.20, 0.04)  # type: ignore[arg-type]
@@ -195,7 +200,7 @@ def test_a_surface_changes_the_friction_grid_and_the_run_id() -> None:
 
 
 def test_explicit_factors_win_over_the_ranking() -> None:
-    m = OilFrictionMapping(oil_factor={"particle": 2.0}, dry_factor={"polyester": 0.3})
+    m = OilFrictionMapping.paper(oil_factor={"particle": 2.0}, dry_factor={"polyester": 0.3})
     assert m.cover_factors("particle") == (COVER_FACTORS["particle"].dry.assumed, 2.0)
     assert m.cover_factors("polyester") == (0.3, COVER_FACTORS["polyester"].oil.assumed)
     ranked = OilFrictionMapping()
@@ -225,7 +230,7 @@ def test_the_surface_model_is_overridable() -> None:
 
 
 def test_mu_of_film_blends_the_balls_levels() -> None:
-    m = OilFrictionMapping(dry_at_or_below_um=1.0, oiled_at_or_above_um=3.0)
+    m = OilFrictionMapping(dry_at_or_below_um=1.0, oiled_at_or_above_um=3.0, ramp="linear")
     dry, oil = m.levels("urethane", 2000)
     np.testing.assert_allclose(
         mu_of_film([0.0, 2.0, 9.0], m, "urethane", 2000), [dry, 0.5 * (dry + oil), oil]

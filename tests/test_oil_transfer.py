@@ -14,6 +14,7 @@ from pydantic import ValidationError
 from bowlrec.bowling.oil import OilGrid, oil_grid, preset, preset_names
 from bowlrec.bowling.oil_friction import (
     OilFrictionMapping,
+    film_thickness_um,
     grid_friction,
     mu_of_film,
     oiled_fraction,
@@ -23,7 +24,6 @@ from bowlrec.bowling.oil_transfer import (
     TransferModel,
     absorb_between_shots,
     apply_track,
-    heads_film_um,
     session_oil_grid,
     track_coverage,
 )
@@ -61,20 +61,13 @@ def test_session_grid_shape_and_dry_cells() -> None:
     g = session_oil_grid(preset("house_shot_approx"))
     assert g.volume_ul.shape == (60, 39)
     assert np.all(g.volume_ul[40:] == 0.0)  # the pattern ends at 40 ft
-    assert np.all(g.volume_ul[:14, 0] == 0.0)  # board 1 is dry (2L-2R)
-    # forward and reverse: a load of 50 µL per board over 14 ft each
-    assert g.volume_ul[0, 1] == pytest.approx(2 * 50.0 / 14.0)
+    assert np.all(g.volume_ul[:40, 0] == 0.0)  # board 1 is dry (2L-2R)
+    # forward and reverse: a load of 50 µL per board over the 40 ft each
+    assert g.volume_ul[0, 1] == pytest.approx(2 * 50.0 / 40.0)
     with pytest.raises(ValueError, match="cell_ft"):
         session_oil_grid(preset("house_shot_approx"), cell_ft=0.0)
     with pytest.raises(ValueError, match="does not cover the oil"):
         session_oil_grid(preset("house_shot_approx"), length_ft=30.0)
-
-
-def test_heads_film() -> None:
-    g = session_oil_grid(preset("house_shot_approx"))
-    # 100/14 µL on a board-foot of a 41.5 in lane (0.3048 m x 27.03 mm): 0.867 µm
-    assert heads_film_um(g, W) == pytest.approx(100.0 / 14.0 * 1e-9 / (FT_M * BW) * 1e6)
-    assert heads_film_um(g, W) == pytest.approx(0.8670, abs=1e-4)
 
 
 # ---- the footprint ----
@@ -241,26 +234,31 @@ def test_session_grid_friction_of_the_fresh_pattern() -> None:
     pattern = preset("house_shot_approx")
     a = pattern_friction(pattern, lane_width_m=W)
     b = grid_friction(session_oil_grid(pattern), lane_width_m=W)
-    assert a.x_edges_m == pytest.approx(b.x_edges_m) and a.mu == b.mu
+    assert a.x_edges_m == pytest.approx(b.x_edges_m) and a.y_edges_m == pytest.approx(b.y_edges_m)
+    # the same films, up to the resampling's rounding (the ramp turns them into friction)
+    np.testing.assert_allclose(a.mu, b.mu, rtol=1e-13, atol=0)
 
 
 def test_power_ramp() -> None:
-    linear = OilFrictionMapping(oiled_at_or_above_um=2.0)
-    power = OilFrictionMapping(oiled_at_or_above_um=2.0, ramp="power")
+    linear = OilFrictionMapping.paper(oiled_at_or_above_um=2.0, ramp="linear")
+    power = OilFrictionMapping.paper(oiled_at_or_above_um=2.0, ramp="power")
     h = np.array([0.0, 0.5, 1.0, 2.0, 3.0])
     assert np.allclose(oiled_fraction(h, linear), [0, 0.25, 0.5, 1, 1])
     assert np.allclose(oiled_fraction(h, power), [0, 0.25**0.4, 0.5**0.4, 1, 1])
     mu = mu_of_film(h, power)
     assert np.allclose(mu, 0.20 - (0.20 - 0.04) * np.clip(h / 2.0, 0, 1) ** 0.4)
-    # the default mapping (a step) is unchanged by the new fields
-    assert np.array_equal(oiled_fraction(h, OilFrictionMapping()), [0, 1, 1, 1, 1])
+    # the paper's levels are a step (any film is oil); the calibrated default ramps up to 1 um
+    assert np.array_equal(oiled_fraction(h, OilFrictionMapping.paper()), [0, 1, 1, 1, 1])
+    default = OilFrictionMapping()
+    assert (default.ramp, default.oiled_at_or_above_um) == ("power", 1.0)
+    assert np.allclose(oiled_fraction(h, default), [0, 0.5**0.4, 1, 1, 1])
     with pytest.raises(ValidationError, match="ramp"):
         OilFrictionMapping(ramp="cubic")  # type: ignore[arg-type]
 
 
 def test_worn_lane_raises_friction_under_the_power_ramp() -> None:
     fresh = session_oil_grid(preset("house_shot_approx"))
-    mapping = OilFrictionMapping(ramp="power", oiled_at_or_above_um=heads_film_um(fresh, W))
+    mapping = OilFrictionMapping()  # the calibrated mapping: full oil from 1 um, power below
     x = np.linspace(0.0, LANE_M, 300)
     worn, _, _ = apply_track(
         fresh, x, np.full_like(x, 10.5 * BW), lane_width_m=W,
@@ -275,6 +273,11 @@ def test_worn_lane_raises_friction_under_the_power_ramp() -> None:
         j = int(np.searchsorted(np.asarray(f.y_edges_m), y_m, side="right"))
         return float(f.mu[i][j])
 
-    assert mu_at(f0, 1.0, 10.5 * BW) == pytest.approx(0.04)
-    assert mu_at(f1, 1.0, 10.5 * BW) == pytest.approx(0.20 - 0.16 * 0.5**0.4)
-    assert mu_at(f1, 1.0, 20.5 * BW) == pytest.approx(0.04)
+    assert mu_at(f0, 1.0, 10.5 * BW) == pytest.approx(mapping.mu_oil)
+    # the track halved the film on board 11 (the cell at 10.5 board widths): 1.82 -> 0.91 um,
+    # below the 1 um of full oil, so the ramp raises its friction
+    h = 0.5 * float(film_thickness_um(fresh, W)[0, 10])
+    assert h < mapping.oiled_at_or_above_um
+    expected = mapping.mu_dry - (mapping.mu_dry - mapping.mu_oil) * h**0.4
+    assert mu_at(f1, 1.0, 10.5 * BW) == pytest.approx(expected, rel=1e-12)
+    assert mu_at(f1, 1.0, 20.5 * BW) == pytest.approx(mapping.mu_oil)

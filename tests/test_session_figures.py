@@ -233,7 +233,7 @@ def test_oil_before_after_renders_deterministically() -> None:
 
 
 def test_oil_before_after_shows_the_grids() -> None:
-    """Worn by five tracks: 21.80 mL before, 21.62 mL after, every cell and board as the grids
+    """Worn by five tracks: 21.80 mL before, less after, every cell and board as the grids
     hold them."""
     before, after = _worn()
     assert not np.array_equal(before.volume_ul, after.volume_ul)
@@ -241,7 +241,8 @@ def test_oil_before_after_shows_the_grids() -> None:
     _check_oil_figure(fig, before, after, _per_board(after))
     assert fig.get_suptitle() == "after 5 shots"
     assert fig.axes[0].get_title() == "before: 21.80 mL"
-    assert fig.axes[1].get_title() == "after: 21.62 mL"
+    assert fig.axes[1].get_title() == f"after: {after.volume_ul.sum() / 1000:.2f} mL"
+    assert after.volume_ul.sum() < before.volume_ul.sum() - 100.0  # the tracks took oil
 
 
 def test_oil_before_after_on_other_cells() -> None:
@@ -304,8 +305,9 @@ def test_unknown_format() -> None:
 
 
 def test_a_sessions_figures_show_its_table(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Six shots of two bowlers (B's league-scatter shots go in the gutter): the figures the
-    session writes show the shots of its shots.csv and the oil of its fresh and final lane."""
+    """Six shots of two bowlers (B, laid down on board 2 and launched outward, goes in the
+    gutter): the figures the session writes show the shots of its shots.csv and the oil of its
+    fresh and final lane."""
     from bowlrec.cli.session import write_outputs
     from bowlrec.session.runner import run_session
     from bowlrec.session.spec import parse_session
@@ -321,7 +323,14 @@ def test_a_sessions_figures_show_its_table(tmp_path: Path, monkeypatch: pytest.M
                 {"name": "A", "scene": {}, "scatter": "robot", "aim": False},
                 {
                     "name": "B",
-                    "scene": {"delivery": {"rev_rate_rpm": 250.0}},
+                    "scene": {
+                        "delivery": {
+                            "rev_rate_rpm": 250.0,
+                            "laydown_board": 2.0,
+                            "launch_angle_deg": -4.0,
+                            "target_board_at_arrows": None,
+                        }
+                    },
                     "scatter": "league",
                     "aim": False,
                 },

@@ -12,7 +12,10 @@ speed      the release speed                           8 - 30 mph
 =========  ==========================================  ===============
 
 One free variable is solved for the entry board (``Pocket.board`` at the head pin line), two for
-the entry board and the entry angle (``Pocket.angle_deg``). With ``target`` free the launch angle
+the entry board and the entry angle (``Pocket.angle_deg``), or, given ``breakpoint_board``, for
+the entry board and the board of the breakpoint (the line a bowler picks on a pattern: the
+breakpoint where the pattern puts it, e.g. Kegel's rule of 31; the entry angle is then what
+the ball gives). With ``target`` free the launch angle
 follows from it (:class:`~bowlrec.bowling.scene.Shot`); with ``launch`` free the scene aims by
 its launch angle. Every evaluation is one summary-only kernel run (a few with a target at the
 arrows), the arrows and the turning point observed on the way.
@@ -62,8 +65,13 @@ _STEP = {"target": 1.0, "launch": 0.3, "laydown": 1.0, "speed": 0.5}
 BOARD_TOL = 1e-3
 #: entry angle within this of the pocket angle (deg)
 ANGLE_TOL_DEG = 1e-3
+#: breakpoint board within this of the one asked for (boards)
+BREAKPOINT_TOL = 0.1
 #: shots tried before the search gives up and reports the closest
 _MAX_EVALUATIONS = 60
+#: the same for a search that places the breakpoint (its outer variable has no secant-friendly
+#: start: it scans the bounds more often)
+_MAX_EVALUATIONS_BREAKPOINT = 400
 
 
 @dataclass(frozen=True)
@@ -99,12 +107,16 @@ class ShotResult:
     def entry_angle_deg(self) -> float | None:
         return self.report.entry_angle_deg
 
-    def miss(self, pocket: Pocket, with_angle: bool) -> float:
-        """Distance from the pocket (boards, plus degrees when the angle counts); inf when the
-        ball does not reach the pins."""
+    def miss(
+        self, pocket: Pocket, with_angle: bool, breakpoint_board: float | None = None
+    ) -> float:
+        """Distance from the pocket (boards, plus degrees when the angle counts, plus boards
+        from ``breakpoint_board`` when given); inf when the ball does not reach the pins."""
         if self.entry_board is None or self.entry_angle_deg is None:
             return math.inf
         d = abs(self.entry_board - pocket.board)
+        if breakpoint_board is not None:
+            return d + abs(self.breakpoint_board - breakpoint_board)
         return d + abs(self.entry_angle_deg - pocket.angle_deg) if with_angle else d
 
 
@@ -193,18 +205,25 @@ class _Search:
     """Evaluations with their bookkeeping: the shot, every shot tried, the closest."""
 
     def __init__(
-        self, scene: BowlerScene, vary: tuple[str, ...], pocket: Pocket, lane: Lane | None = None
+        self,
+        scene: BowlerScene,
+        vary: tuple[str, ...],
+        pocket: Pocket,
+        lane: Lane | None = None,
+        breakpoint_board: float | None = None,
     ) -> None:
         self.scene, self.vary, self.pocket = scene, vary, pocket
+        self.breakpoint_board = breakpoint_board
         self.shot = Shot(scene, lane=lane)
-        self.with_angle = len(vary) == 2
+        self.with_angle = len(vary) == 2 and breakpoint_board is None
         self.tried: list[tuple[dict[str, float], ShotResult]] = []
         self.attempts = 0
+        self.budget = _MAX_EVALUATIONS if breakpoint_board is None else _MAX_EVALUATIONS_BREAKPOINT
 
     def run(self, values: dict[str, float]) -> ShotResult | None:
         """The shot with the free variables at ``values``; None if it cannot be thrown.
         Raises _Spent once the evaluation budget is used up."""
-        if self.attempts >= _MAX_EVALUATIONS:
+        if self.attempts >= self.budget:
             raise _Spent
         self.attempts += 1
         try:
@@ -215,12 +234,15 @@ class _Search:
         return result
 
     def spent(self) -> bool:
-        return self.attempts >= _MAX_EVALUATIONS
+        return self.attempts >= self.budget
 
     def best(self) -> tuple[dict[str, float], ShotResult] | None:
         if not self.tried:
             return None
-        return min(self.tried, key=lambda t: t[1].miss(self.pocket, self.with_angle))
+        return min(
+            self.tried,
+            key=lambda t: t[1].miss(self.pocket, self.with_angle, self.breakpoint_board),
+        )
 
 
 _Residual = Callable[[float], float | None]
@@ -313,8 +335,9 @@ def _board_residual(search: _Search, fixed: dict[str, float], name: str) -> _Res
 
 
 def _solve(search: _Search) -> bool:
-    """One variable: the entry board. Two: the first variable for the entry angle, with the
-    second solved for the entry board at every step."""
+    """One variable: the entry board. Two: the first variable for the entry angle (or the
+    breakpoint board, when one is asked for), with the second solved for the entry board at
+    every step."""
     starts = {n: _value(search.shot, search.scene, n) for n in search.vary}
     if len(search.vary) == 1:
         (name,) = search.vary
@@ -334,11 +357,16 @@ def _solve(search: _Search) -> bool:
         r = search.run({outer: v, inner: w})
         if r is None or r.entry_angle_deg is None:
             return None
+        if search.breakpoint_board is not None:
+            return r.breakpoint_board - search.breakpoint_board
         return r.entry_angle_deg - search.pocket.angle_deg
 
     lo, hi = _BOUNDS[outer]
     step = _STEP[outer]
-    found = _secant(angle_residual, starts[outer], step, lo, hi, ANGLE_TOL_DEG, search)
+    if search.breakpoint_board is not None:  # no start to go on: scanned and bracketed
+        found = _root(angle_residual, starts[outer], step, lo, hi, BREAKPOINT_TOL, search)
+    else:
+        found = _secant(angle_residual, starts[outer], step, lo, hi, ANGLE_TOL_DEG, search)
     return found is not None
 
 
@@ -347,11 +375,14 @@ def aim(
     vary: Sequence[str] = ("target",),
     pocket: Pocket = POCKET,
     lane: Lane | None = None,
+    breakpoint_board: float | None = None,
 ) -> AimResult:
     """The shot of ``scene`` that enters ``pocket``, varying ``vary`` (one or two names of
     :data:`VARIABLES`; module docstring), on ``lane`` (a physical lane; default the scene's
-    own, its pattern's friction for its ball). Raises AimError for a bad request; an
-    unreachable pocket is a result with ``found`` False and the closest shot tried."""
+    own, its pattern's friction for its ball). With two variables and ``breakpoint_board``
+    (boards), the shot enters the pocket's board with its breakpoint on that board instead of
+    at the pocket's angle. Raises AimError for a bad request; an unreachable pocket is a
+    result with ``found`` False and the closest shot tried."""
     names = tuple(vary)
     unknown = [n for n in names if n not in VARIABLES]
     if unknown or not 1 <= len(names) <= 2 or len(set(names)) != len(names):
@@ -360,8 +391,15 @@ def aim(
         )
     if set(names) == {"target", "launch"}:
         raise AimError("vary = ['target', 'launch']: the target decides the launch angle")
+    if breakpoint_board is not None and len(names) != 2:
+        raise AimError(
+            f"breakpoint_board = {breakpoint_board:g}: free two variables (e.g. laydown and "
+            "target) to place both the entry board and the breakpoint"
+        )
+    if breakpoint_board is not None and not 0.0 < breakpoint_board < 39.0:
+        raise AimError(f"breakpoint_board = {breakpoint_board:g} must be between 0 and 39")
     t0 = time.perf_counter()
-    search = _Search(scene, names, pocket, lane)
+    search = _Search(scene, names, pocket, lane, breakpoint_board)
     try:
         found = _solve(search)
     except _Spent:
@@ -377,10 +415,22 @@ def aim(
     # a shot inside the window is an answer even where the aim point itself was not hit
     if len(names) == 1:
         found = found or pocket.board_ok(shot.entry_board)
+    elif breakpoint_board is not None:
+        found = found or (
+            pocket.board_ok(shot.entry_board)
+            and abs(shot.breakpoint_board - breakpoint_board) <= BREAKPOINT_TOL
+        )
     else:
         found = found or pocket.contains(shot.entry_board, shot.entry_angle_deg)
     solved = scene.model_copy(update={"delivery": _with(scene.delivery, values)})
-    if found and not pocket.angle_ok(shot.entry_angle_deg):
+    if found and breakpoint_board is not None:
+        window = "inside" if pocket.angle_ok(shot.entry_angle_deg) else "outside"
+        message = (
+            f"enters at board {shot.entry_board:.2f} with the breakpoint on board "
+            f"{shot.breakpoint_board:.2f} at {shot.breakpoint_ft:.1f} ft; its entry angle "
+            f"{shot.entry_angle_deg:.2f} deg is {window} the angle window ({pocket.describe()})"
+        )
+    elif found and not pocket.angle_ok(shot.entry_angle_deg):
         message = (
             f"enters at board {shot.entry_board:.2f}, but at {shot.entry_angle_deg:.2f} deg, "
             f"outside the angle window ({pocket.describe()}): free a second variable to solve "

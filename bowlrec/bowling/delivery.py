@@ -70,6 +70,7 @@ from bowlrec.spec._base import (
 from bowlrec.units import ARROWS_FT, BOARDS, FT_M, MPH_MPS, RPM_RADPS
 
 from .lane import BowlerLane, Handedness
+from .styles import STYLE_NAMES, STYLES, Style
 
 __all__ = [
     "BowlerDelivery",
@@ -158,8 +159,18 @@ MAX_REV_RATE_RPM = 9500.0
 class BowlerDelivery(SpecModel):
     """A delivery in tracking-system terms (mph, rpm, degrees, boards, ft); see the module doc
     for every zero and sign. Give the direction either as ``launch_angle_deg`` or as
-    ``target_board_at_arrows`` (not both; neither means launch angle 0)."""
+    ``target_board_at_arrows`` (not both; neither means launch angle 0). With ``style``, the
+    release quantities not given take that bowler type's typical values
+    (:mod:`bowlrec.bowling.styles`)."""
 
+    style: Style | None = Field(
+        default=None,
+        description=(
+            f"Bowler type ({' | '.join(STYLE_NAMES)}): speed_mph, rev_rate_rpm, "
+            "axis_rotation_deg and axis_tilt_deg not given take the type's typical values "
+            "(docs/calibration.md); null: the fields' own defaults."
+        ),
+    )
     handedness: Handedness = Field(
         default="right",
         description="Bowling hand: 'right' or 'left'. Boards are counted from this hand's gutter.",
@@ -233,6 +244,16 @@ class BowlerDelivery(SpecModel):
             "cross it (to 1e-6 board)."
         ),
     )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _style_fills_release(cls, data: object) -> object:
+        """A style gives the release quantities the delivery does not give itself."""
+        if isinstance(data, dict) and isinstance(data.get("style"), str):
+            preset = STYLES.get(data["style"])
+            if preset is not None:
+                return {**preset.typical(), **data}
+        return data
 
     @model_validator(mode="after")
     def _target_needs_laydown_before_arrows(self) -> BowlerDelivery:

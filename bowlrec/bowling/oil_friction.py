@@ -26,9 +26,13 @@ mu_oil unchanged. Entries of ``dry_factor`` / ``oil_factor`` replace a coverstoc
 factor; the grit model's numbers are fields too. ``cover_model: "none"`` makes every factor 1
 except those entries: the same friction for every ball.
 
-**Defaults reproduce the paper's two levels** for the reference ball (Frohlich 2004: 0.04 on
-oil, 0.20 dry): h0 = h1 = 0 (any oil is "oiled"), so a cell is 0.04 if it carries oil and 0.20
-if not. The paper's own scenes (:mod:`bowlrec.paper`) do not go through this mapping.
+**Defaults are the calibrated levels** for the reference ball
+(:func:`~bowlrec.bowling.friction_levels.calibrated`: fitted to published breakpoints, entry
+angles and roll points, ``docs/calibration.md``) with h0 = h1 = 0 (any oil is "oiled"), so a
+cell is at mu_oil if it carries oil and at mu_dry if not. :meth:`OilFrictionMapping.paper`
+gives the paper's two levels instead (Frohlich 2004: 0.04 on oil, 0.20 dry; ``oil_friction:
+"paper"`` in a bowler scene). The paper's own scenes (:mod:`bowlrec.paper`) do not go through
+this mapping.
 
 **Positions outside the pattern's grid**: dry beyond the oil (x past its end, boards without
 oil); behind the foul line (x < 0) and beyond the gutters (y < 0, y > width) the cells at the
@@ -52,6 +56,7 @@ from bowlrec.spec.friction_grid import simplify_grid
 from bowlrec.spec.lane import Lane
 from bowlrec.units import BOARDS, FT_M, IN_M, LANE_LENGTH_FT, LANE_WIDTH_IN
 
+from .friction_levels import PAPER, FrictionLevels, calibrated
 from .oil import KegelPattern, OilGrid, RectanglePattern, oil_grid
 from .surface import (
     COVER_FACTORS,
@@ -99,26 +104,30 @@ _LANE_LENGTH_M = LANE_LENGTH_FT * FT_M
 
 class OilFrictionMapping(SpecModel):
     """mu(film thickness, coverstock, surface); see the module docstring for the formula. The
-    defaults give the paper's two levels, 0.04 wherever there is oil and 0.20 elsewhere, for the
-    reference ball (reactive_solid at 1000 grit), and the ranked cover and surface factors for
-    every other ball."""
+    defaults give the calibrated levels (mu_oil wherever there is oil, mu_dry elsewhere) for
+    the reference ball (reactive_solid at 1000 grit), and the ranked cover and surface factors
+    for every other ball; :meth:`paper` the paper's 0.04 / 0.20."""
 
     mu_dry: NonNegativeFloat = Field(
-        default=0.20, description="Friction on a dry lane (>= 0), for the reference ball."
+        default=calibrated().mu_dry,
+        description="Friction on a dry lane (>= 0), for the reference ball (default: the "
+        "calibrated level, docs/calibration.md).",
     )
     mu_oil: NonNegativeFloat = Field(
-        default=0.04, description="Friction on full oil (>= 0), for the reference ball."
+        default=calibrated().mu_oil,
+        description="Friction on full oil (>= 0), for the reference ball (default: the "
+        "calibrated level, docs/calibration.md).",
     )
     dry_at_or_below_um: NonNegativeFloat = Field(
         default=0.0, description="Film thickness (µm) at or below which the lane is dry (>= 0)."
     )
     oiled_at_or_above_um: NonNegativeFloat = Field(
-        default=0.0,
+        default=calibrated().oiled_at_or_above_um,
         description="Film thickness (µm) from which the lane is fully oiled (>= the dry one); "
-        "mu follows the ramp in between.",
+        "mu follows the ramp in between (default: the calibrated film, docs/calibration.md).",
     )
     ramp: Ramp = Field(
-        default="linear",
+        default="power",
         description="Shape of the oiled fraction between the dry and the oiled film: 'linear', "
         "or 'power' ((h - h0) / (h1 - h0)) ** ramp_exponent (Fresh Oil's f^0.40).",
     )
@@ -171,6 +180,25 @@ class OilFrictionMapping(SpecModel):
         description="Surface factor of a polished ball on mu_dry (> 0; plausible "
         f"{POLISHED_DRY.low:g}-{POLISHED_DRY.high:g}).",
     )
+
+    @classmethod
+    def with_levels(cls, levels: FrictionLevels, **fields: object) -> OilFrictionMapping:
+        """A mapping at ``levels`` (the reference ball's mu_oil and mu_dry and the film from
+        which a board is fully oiled), other fields from ``fields`` or their defaults."""
+        return cls.model_validate(
+            {
+                "mu_oil": levels.mu_oil,
+                "mu_dry": levels.mu_dry,
+                "oiled_at_or_above_um": levels.oiled_at_or_above_um,
+                **fields,
+            }
+        )
+
+    @classmethod
+    def paper(cls, **fields: object) -> OilFrictionMapping:
+        """The paper's two levels (0.04 on oil, 0.20 dry) for the reference ball; other fields
+        from ``fields`` or their defaults."""
+        return cls.with_levels(PAPER, **fields)
 
     @field_validator("oiled_at_or_above_um")
     @classmethod

@@ -52,7 +52,6 @@ __all__ = [
     "TransferModel",
     "absorb_between_shots",
     "apply_track",
-    "heads_film_um",
     "resample_grid",
     "session_oil_grid",
     "track_coverage",
@@ -70,7 +69,7 @@ class TransferModel(SpecModel):
     from the area of play within about 4-5 games per lane"; the others argued there)."""
 
     pickup_fraction: NonNegativeFloat = Field(
-        default=0.159,
+        default=0.166,
         le=1.0,
         description="Fraction of the oil under the track lifted by one pass, in [0, 1] "
         "(calibrated to Kegel's >40 % removed from the area of play in 4.5 games; Fresh Oil "
@@ -203,18 +202,6 @@ def session_oil_grid(
     xe = _regular_edges(length_ft, cell_ft, "cell_ft")
     be = _regular_edges(float(BOARDS), cell_boards, "cell_boards")
     return resample_grid(oil_grid(pattern), xe, be)
-
-
-def heads_film_um(grid: OilGrid, lane_width_m: float, *, heads_ft: float = 10.0) -> float:
-    """The largest film (µm) in the rows starting within the first ``heads_ft`` of the lane:
-    the reference film of a session's power ramp (``OilFrictionMapping(ramp="power",
-    oiled_at_or_above_um=...)``) on its fresh pattern, so that the fresh heads play at mu_oil
-    where they carry the most oil. 0 for a dry head."""
-    from .oil_friction import film_thickness_um
-
-    film = film_thickness_um(grid, lane_width_m)
-    rows = grid.x_edges_ft[:-1] < heads_ft
-    return float(film[rows].max()) if np.any(rows) and film.size else 0.0
 
 
 # ---- the track's footprint ------------------------------------------------------------------

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -70,6 +70,14 @@ def _default_ball() -> BowlerBall:
         coverstock="reactive_pearl",
         surface=1500,
     )
+
+
+def _named_levels_schema(schema: dict[str, Any]) -> None:
+    """The JSON Schema of ``oil_friction``: a mapping or one of the two named level sets."""
+    mapping = {k: v for k, v in schema.items() if k not in ("description", "title")}
+    for k in mapping:
+        del schema[k]
+    schema["anyOf"] = [mapping, {"type": "string", "enum": ["paper", "calibrated"]}]
 
 
 class BowlerScene(SpecModel):
@@ -122,7 +130,10 @@ class BowlerScene(SpecModel):
     )
     oil_friction: OilFrictionMapping = Field(
         default_factory=OilFrictionMapping,
-        description="Oil depth -> friction mapping (default: the paper's 0.04 oiled / 0.20 dry).",
+        description="Oil depth -> friction mapping, or 'paper' (Frohlich's 0.04 oiled / 0.20 "
+        "dry) or 'calibrated' (the default: levels fitted to published ball motion, "
+        "docs/calibration.md).",
+        json_schema_extra=_named_levels_schema,
     )
     delivery: BowlerDelivery = Field(
         default_factory=hooking_delivery,
@@ -136,6 +147,21 @@ class BowlerScene(SpecModel):
     allow_illegal: bool = Field(
         default=False, description="Simulate a ball that fails the rule set (reported)."
     )
+
+    @field_validator("oil_friction", mode="before")
+    @classmethod
+    def _named_mapping(cls, value: object) -> object:
+        """'paper' and 'calibrated' name the two sets of friction levels."""
+        if value == "paper":
+            return OilFrictionMapping.paper()
+        if value == "calibrated":
+            return OilFrictionMapping()
+        if isinstance(value, str):
+            raise spec_error(
+                f"oil_friction = {value!r}: give 'paper', 'calibrated' or a mapping "
+                "(mu_oil, mu_dry, ...)"
+            )
+        return value
 
     @field_validator("delivery")
     @classmethod

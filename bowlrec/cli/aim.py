@@ -41,6 +41,22 @@ AngleWindowOption = Annotated[
     tuple[float, float] | None,
     typer.Option("--angle-window", help="Entry angle window, deg (4 6)."),
 ]
+BreakpointOption = Annotated[
+    float | None,
+    typer.Option(
+        "--breakpoint-board",
+        help="With two variables: put the breakpoint on this board (instead of solving the "
+        "entry angle); the angle is what the ball then gives.",
+    ),
+]
+RuleOf31Option = Annotated[
+    bool,
+    typer.Option(
+        "--rule-of-31",
+        help="With two variables: the breakpoint one board outside the rule of 31's exit "
+        "board (pattern length in ft - 32), as the calibration plays every pattern.",
+    ),
+]
 
 
 def pocket_from_options(
@@ -84,21 +100,29 @@ def aim(
     board_window: BoardWindowOption = None,
     angle: AngleOption = None,
     angle_window: AngleWindowOption = None,
+    breakpoint_board: BreakpointOption = None,
+    rule_of_31: RuleOf31Option = False,
     out: Annotated[
         Path | None, typer.Option("--out", "-o", help="Write the aimed bowler scene (.json).")
     ] = None,
     as_json: JsonOption = False,
 ) -> None:
     """Find the shot that enters the pocket: vary one variable for the entry board, or two for
-    the entry board and angle. Exits 1 when no shot within the bounds does (the closest is
-    shown, and --out is not written)."""
+    the entry board and angle (or the entry board and a breakpoint board). Exits 1 when no
+    shot within the bounds does (the closest is shown, and --out is not written)."""
     from bowlrec.bowling.aim import aim as solve_aim
 
     if out is not None and out.suffix.lower() != ".json":
         fail(f"--out {out}: the aimed scene is written as JSON; give a .json path")
+    if rule_of_31 and breakpoint_board is not None:
+        fail("--rule-of-31 and --breakpoint-board: give one (the rule decides the board)")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
-    result = solve_aim(bowler, vary or ["target"], pocket)
+    if rule_of_31:
+        from bowlrec.bowling.calibration import breakpoint_board_for, pattern_length_ft
+
+        breakpoint_board = breakpoint_board_for(pattern_length_ft(bowler.pattern_model()))
+    result = solve_aim(bowler, vary or ["target"], pocket, breakpoint_board=breakpoint_board)
     written = out if out is not None and result.found else None
     if written is not None:
         from bowlrec.atomic_files import atomic_path

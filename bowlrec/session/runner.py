@@ -13,8 +13,14 @@ balls cross the lane, stated in docs/sessions.md.
 
 **Each release** is the bowler's shot with a release scatter drawn from the session's seed and
 the shot number (``numpy.random.default_rng([seed, shot])``), launched at the angle that puts
-the bowler's shot over its target on the fresh lane: bowlers keep their line, and the lane's
-change shows as drift of the breakpoint and entry.
+the bowler's line over its target at the arrows. **Adjusting.** When ``after_misses`` first balls
+in a row (default 2) enter outside the pocket's board window on the same side, a bowler with
+``adjust`` moves feet and target toward the miss (by default the 2-and-1 move: laydown 2
+boards, target 1 board; toward higher boards after high hits) and aims the new line on the
+lane as it is then (the launch angle that crosses the new target); a bowler without
+``adjust`` keeps the line, and the lane's change shows as drift of the breakpoint and entry. A
+move that would leave the lane (laydown or target beyond boards 1-39) or whose target cannot
+be reached is not made.
 
 **Run IDs and resuming.** A shot's run ID hashes its Plan, the physics version, the session ID
 (:meth:`SessionSpec.session_id`) and the shot number, so the same delivery in another session
@@ -44,17 +50,17 @@ from bowlrec.bowling.oil_transfer import (
     TransferLedger,
     absorb_between_shots,
     apply_track,
-    heads_film_um,
     session_oil_grid,
 )
 from bowlrec.bowling.report import bowler_report
 from bowlrec.bowling.scene import BowlerScene, Shot
 from bowlrec.bowling.variance import ReleaseScatter, draw_releases
+from bowlrec.errors import AimError
 from bowlrec.sinks.common import RunData
 from bowlrec.versions import PHYSICS_VERSION
 
 from .records import ShotState, oil_from_records, shot_records, state_from_records
-from .spec import SessionSpec
+from .spec import Adjustment, SessionSpec
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -88,6 +94,9 @@ class ShotRow:
     entry_angle_deg: float | None
     breakpoint_board: float
     breakpoint_ft: float
+    #: the bowler's line for this shot: laydown board and target board at the arrows
+    laydown_board: float
+    target_board: float | None
     lane_oil_ul: float
     lifted_ul: float
     deposited_ul: float
@@ -146,6 +155,9 @@ class _Bowler:
     drilled: DrilledBall | None
     launch_deg: float
     scatter: ReleaseScatter
+    adjust: Adjustment | None
+    #: sides (+1 high, -1 light) of the first balls in a row that missed since the last move
+    misses: list[float] = field(default_factory=list)
 
 
 class _Session:
@@ -166,9 +178,7 @@ class _Session:
             cell_boards=spec.grid.cell_boards,
             length_ft=first.length_ft,
         )
-        self.mapping = spec.oil_friction or OilFrictionMapping(
-            ramp="power", oiled_at_or_above_um=heads_film_um(self.fresh, self.width_m)
-        )
+        self.mapping = spec.oil_friction or OilFrictionMapping()
         self.oil = self.fresh
         self.loads = {b.name: 0.0 for b in spec.bowlers}
         #: what aiming on the fresh lane found, by bowler
@@ -201,7 +211,49 @@ class _Session:
             scene = found.scene
             self.aims[b.name] = found.message
         shot = Shot(scene, lane=lane, drilled=drilled)
-        return _Bowler(b.name, scene, drilled, shot.launch_angle(scene.delivery), b.scatter_model())
+        launch = shot.launch_angle(scene.delivery)
+        return _Bowler(b.name, scene, drilled, launch, b.scatter_model(), b.adjust)
+
+    def adjust(self, bowler: _Bowler, row: ShotRow) -> None:
+        """Move ``bowler``'s feet and target after ``row`` (module docstring: Adjusting)."""
+        move = bowler.adjust
+        pocket = self.spec.pocket
+        if move is None or row.ball != 1 or row.entry_board is None:
+            return
+        if pocket.board_min <= row.entry_board <= pocket.board_max:
+            bowler.misses.clear()
+            return
+        side = 1.0 if row.entry_board > pocket.board_max else -1.0
+        if bowler.misses and bowler.misses[-1] != side:
+            bowler.misses.clear()
+        bowler.misses.append(side)
+        if len(bowler.misses) < move.after_misses:
+            return
+        bowler.misses.clear()
+        d = bowler.scene.delivery
+        target = d.target_board_at_arrows
+        if target is None:
+            target = row.target_board
+        if target is None:
+            return
+        laydown = d.laydown_board + side * move.feet_boards
+        target = target + side * move.target_boards
+        if not (1.0 <= laydown <= 39.0 and 1.0 <= target <= 39.0):
+            return
+        moved = d.model_copy(
+            update={
+                "laydown_board": laydown,
+                "target_board_at_arrows": target,
+                "launch_angle_deg": None,
+            }
+        )
+        scene = bowler.scene.model_copy(update={"delivery": moved})
+        shot = Shot(scene, lane=self.lane_for(scene), drilled=bowler.drilled)
+        try:
+            launch = shot.launch_angle(moved)
+        except AimError:
+            return
+        bowler.scene, bowler.launch_deg = scene, launch
 
     def lane_for(self, scene: BowlerScene) -> Lane:
         """The physical lane of the current oil for ``scene``'s ball (its cover and surface)."""
@@ -244,6 +296,7 @@ def run_session(
         for shot, game, frame, ball, bowler in _order_of_play(s, result, max_shots):
             row = _play(s, store, bowler, shot, game, frame, ball)
             result.rows.append(row)
+            s.adjust(bowler, row)
             if on_shot is not None:
                 on_shot(row)
     finally:
@@ -350,6 +403,12 @@ def _play(
     return _row(s, bowler, rid, traj, state, simulated=True)
 
 
+def _arrows_board(bowler: _Bowler, crossed: float | None) -> float | None:
+    """The bowler's target at the arrows: the scene's, else the board the shot crossed."""
+    target = bowler.scene.delivery.target_board_at_arrows
+    return crossed if target is None else target
+
+
 def _row(
     s: _Session,
     bowler: _Bowler,
@@ -376,6 +435,8 @@ def _row(
         entry_angle_deg=rep.entry_angle_deg,
         breakpoint_board=rep.breakpoint_board,
         breakpoint_ft=rep.breakpoint_ft,
+        laydown_board=bowler.scene.delivery.laydown_board,
+        target_board=_arrows_board(bowler, rep.arrows_board),
         lane_oil_ul=ledger.lane_after_ul,
         lifted_ul=ledger.lifted_ul,
         deposited_ul=ledger.deposited_ul,

@@ -19,9 +19,8 @@ changes shot by shot.
 
 Each bowler's scene gives the ball, layout, delivery and target; the session's ``pattern``
 replaces the scene's own (every bowler bowls on the same lane). The session's friction mapping
-(``oil_friction``) gives friction from the oil film with Fresh Oil's power ramp, referenced to
-the fresh pattern's thickest film in the heads (``oil_transfer.heads_film_um``), so that
-breakdown changes friction; the bowler scene's own mapping is not used.
+(``oil_friction``, default the calibrated mapping of bowler scenes, whose power ramp below a
+1 um film makes breakdown change the friction) replaces the scenes' own.
 """
 
 from __future__ import annotations
@@ -43,10 +42,11 @@ from bowlrec.bowling.variance import PRESETS, ReleaseScatter
 from bowlrec.errors import SceneInputError, SpecFileError
 from bowlrec.scene_input import check_scene_input, prefix_lines
 from bowlrec.spec import format_validation_error
-from bowlrec.spec._base import PositiveFloat, SpecModel, spec_error
+from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, spec_error
 from bowlrec.spec.loading import read_mapping
 
 __all__ = [
+    "Adjustment",
     "MAX_BOWLERS",
     "MAX_GAMES",
     "SESSION_FORMAT",
@@ -84,6 +84,32 @@ class OilGridSpec(SpecModel):
     )
 
 
+class Adjustment(SpecModel):
+    """A bowler's move when first balls miss the pocket's board window on one side: the laydown
+    board by ``feet_boards`` and the target at the arrows by ``target_boards``, both toward the
+    side of the miss (toward higher boards when the balls entered above the window, "high";
+    lower when they came in "light"), once ``after_misses`` first balls in a row since the last
+    move missed on that side. The coaches' 2-and-1 move is the default (Bowling This Month,
+    "The fundamentals of target line adjustments"; Ron Clifton: when the ball crosses over,
+    move the feet deeper); waiting for two misses that agree (one can be a bad release) is
+    bowlrec's assumption (docs/sessions.md)."""
+
+    feet_boards: PositiveFloat = Field(
+        default=2.0, le=10.0, description="Boards the feet (laydown) move per miss, in (0, 10]."
+    )
+    target_boards: NonNegativeFloat = Field(
+        default=1.0,
+        le=10.0,
+        description="Boards the target at the arrows moves per miss, in [0, 10].",
+    )
+    after_misses: int = Field(
+        default=2,
+        ge=1,
+        le=10,
+        description="First balls in a row missing on one side before the bowler moves, in [1, 10].",
+    )
+
+
 class SessionBowler(SpecModel):
     """One bowler: a bowler scene (ball, layout, delivery, target) and a release scatter."""
 
@@ -99,6 +125,14 @@ class SessionBowler(SpecModel):
             "Find the target at the arrows that enters the pocket on the fresh lane before the "
             "first shot (as a bowler's practice shots do), then keep it; false: the scene's "
             "own target or launch angle."
+        ),
+    )
+    adjust: Adjustment | None = Field(
+        default_factory=lambda: Adjustment(),
+        description=(
+            "How the bowler moves feet and target when first balls miss the pocket's board "
+            "window on one side (default: the 2-and-1 move toward the miss after two such "
+            "misses); null: the bowler keeps the line all session."
         ),
     )
 
@@ -135,8 +169,8 @@ class SessionSpec(SpecModel):
     oil_friction: OilFrictionMapping | None = Field(
         default=None,
         description=(
-            "Oil film -> friction; default: the power ramp referenced to the fresh pattern's "
-            "thickest film in the heads (module docstring)."
+            "Oil film -> friction; default: the calibrated mapping of bowler scenes (its power "
+            "ramp makes a film thinned by the shots grip more; docs/calibration.md)."
         ),
     )
     record_dt_s: PositiveFloat = Field(
