@@ -76,6 +76,10 @@ def objective(point: tuple[float, float, float]) -> dict[str, Any]:
         "motion_objective": sum(
             s.objective for s in scores if s.compare.quantity not in cal.LEVELS
         ),
+        "by_fact": {
+            o.id: sum(s.objective for s in scores if s.observable.id == o.id)
+            for o in {s.observable.id: s.observable for s in scores}.values()
+        },
         "terms": sum(len(s.values) for s in scores),
         "lines_found": sum(r.found for r in results.values()),
         "lines": len(results),
@@ -135,19 +139,32 @@ def summarise(grid: list[dict[str, Any]]) -> dict[str, Any]:
         "scale_s2": s2,
         "grid": grid,
         "unconstrained": min(grid, key=lambda r: r["motion_objective"]),
+        "default": _default(grid, span("ramp_um")[1]),
     }
+
+
+def _default(grid: list[dict[str, Any]], film_um: float) -> dict[str, Any]:
+    """The default levels: the best grid point at the thickest full-oil film the fit's interval
+    allows. The facts cannot tell the films of the interval apart; a session's worn films need
+    a ramp to grip more (at 0 any trace of carrydown makes a dry back end full oil), so the
+    default takes the interval's upper end."""
+    at = [r for r in grid if r["ramp_um"] == film_um]
+    best = min(at, key=lambda r: r["objective"])
+    return {k: best[k] for k in ("mu_oil", "mu_dry", "ramp_um", "objective")}
 
 
 def write_fit(f: dict[str, Any]) -> None:
     """The fitted levels as the package's calibrated default."""
+    default = f["default"]
     data = {
-        "mu_oil": f["mu_oil"],
-        "mu_dry": f["mu_dry"],
-        "oiled_at_or_above_um": f["ramp_um"],
+        "mu_oil": default["mu_oil"],
+        "mu_dry": default["mu_dry"],
+        "oiled_at_or_above_um": default["ramp_um"],
         "oiled_at_or_above_um_interval": f["ramp_um_interval"],
         "mu_oil_interval": f["mu_oil_interval"],
         "mu_dry_interval": f["mu_dry_interval"],
-        "objective": round(f["objective"], 3),
+        "objective": round(default["objective"], 3),
+        "minimum": {k: f[k] for k in ("mu_oil", "mu_dry", "ramp_um", "objective")},
         "terms": f["terms"],
         "source": (
             "fitted by `python -m benchmarks.calibration --fit` to the fit facts of "
@@ -187,9 +204,37 @@ def evaluate(mu_oil: float, mu_dry: float, ramp_um: float) -> dict[str, Any]:
         "mu_oil": mu_oil,
         "mu_dry": mu_dry,
         "ramp_um": ramp_um,
+        "clifton": clifton_lines(mapping),
         "comparisons": rows,
         "lines": [r.to_dict() for r in results.values()],
     }
+
+
+#: the outside end of Ron Clifton's best-carry zone on a house shot (boards 5-8, ~40 ft)
+CLIFTON_BOARD = 5.0
+
+
+def clifton_lines(mapping: Any) -> list[dict[str, Any]]:
+    """Each hook bowler's house-shot line breaking on :data:`CLIFTON_BOARD` (the pocket's
+    board, laydown and launch free): where it breaks and how it enters."""
+    from bowlrec.bowling import calibration as cal
+    from bowlrec.bowling.aim import aim
+    from bowlrec.bowling.pocket import POCKET
+
+    rows = []
+    for style in ("tweener", "cranker", "two-handed"):
+        scene = cal.case_scene(cal.Case(style, "house_shot_approx"), mapping)
+        r = aim(scene, ("laydown", "launch"), POCKET, breakpoint_board=CLIFTON_BOARD)
+        rows.append(
+            {
+                "style": style,
+                "found": r.found,
+                "breakpoint_board": r.shot.breakpoint_board,
+                "breakpoint_ft": r.shot.breakpoint_ft,
+                "entry_angle_deg": r.shot.entry_angle_deg,
+            }
+        )
+    return rows
 
 
 def pocket_rates(mu_oil: float, mu_dry: float, ramp_um: float, n: int) -> list[dict[str, Any]]:
@@ -237,7 +282,9 @@ def _num(v: Any, digits: int = 2) -> str:
     if v is None:
         return "-"
     if isinstance(v, float) and math.isinf(v):
-        return "inf"
+        return "-"
+    if v != 0 and abs(v) < 0.1:
+        return f"{v:.2g}"
     return f"{v:.{digits}f}"
 
 
@@ -251,9 +298,22 @@ def _range(low: Any, high: Any, value: Any = None) -> str:
     return "-" if value is None else f"{value:g}"
 
 
+def _film_range() -> tuple[float, float]:
+    """The thinnest and thickest oiled film (um) on the fitted patterns (41.5 in lane)."""
+    from bowlrec.bowling import calibration as cal
+    from bowlrec.bowling.oil import oil_grid, preset
+    from bowlrec.bowling.oil_friction import film_thickness_um
+    from bowlrec.units import IN_M, LANE_WIDTH_IN
+
+    films = [film_thickness_um(oil_grid(preset(p)), LANE_WIDTH_IN * IN_M) for p in cal.FIT_PATTERNS]
+    return min(float(f[f > 0].min()) for f in films), max(float(f.max()) for f in films)
+
+
 def page(d: dict[str, Any]) -> str:
     from bowlrec.bowling import calibration as cal
     from bowlrec.bowling.styles import STYLES
+
+    films = _film_range()
 
     obs = {o.id: o for o in cal.load_observables()}
     f = d["fit"]
@@ -307,24 +367,37 @@ def page(d: dict[str, Any]) -> str:
         '0.04" on oil and "generally not more than about 0.20" dry, read as +-50 %. '
         "Without them the ball-motion facts alone are best at mu_oil "
         f"{d['unconstrained']['mu_oil']:.4g}, mu_dry {d['unconstrained']['mu_dry']:.3g} "
-        f"(J = {d['unconstrained']['motion_objective']:.1f} over the motion facts): friction "
-        "on the oil turns spin into hook before the breakpoint, which costs the launch angle "
-        "and so the entry angle (below, the rolling angle), so the motion facts favour an "
-        "almost frictionless front, well under Frohlich's 0.04.",
+        f"(J = {d['unconstrained']['motion_objective']:.1f} over the motion facts).",
         "",
         "| | mu_oil | mu_dry | full oil from h1 (um) | J (fit facts) | cases |",
         "|---|---|---|---|---|---|",
-        f"| calibrated (the default) | **{f['mu_oil']:.4g}** ({f['mu_oil_interval'][0]:.4g}-"
-        f"{f['mu_oil_interval'][1]:.4g}) | **{f['mu_dry']:.3g}** ({f['mu_dry_interval'][0]:.3g}-"
-        f"{f['mu_dry_interval'][1]:.3g}) | **{f['ramp_um']:g}** ({f['ramp_um_interval'][0]:g}-"
-        f"{f['ramp_um_interval'][1]:g}) | {f['objective']:.1f} | {f['terms']} |",
+        f"| the objective's minimum | {f['mu_oil']:.4g} | {f['mu_dry']:.3g} | {f['ramp_um']:g} | "
+        f"{f['objective']:.1f} | {f['terms']} |",
+        f"| calibrated (the default) | **{f['default']['mu_oil']:.4g}** "
+        f"({f['mu_oil_interval'][0]:.4g}-"
+        f"{f['mu_oil_interval'][1]:.4g}) | **{f['default']['mu_dry']:.3g}** "
+        f"({f['mu_dry_interval'][0]:.3g}-{f['mu_dry_interval'][1]:.3g}) | "
+        f"**{f['default']['ramp_um']:g}** ({f['ramp_um_interval'][0]:g}-"
+        f"{f['ramp_um_interval'][1]:g}) | {f['default']['objective']:.1f} | {f['terms']} |",
+        "",
+        "The intervals hold every grid point within s^2 of the minimum (below). The facts "
+        "cannot tell the full-oil films of their interval apart; the default takes its upper "
+        "end, the thickest film the fit allows, with the best levels there: a session's worn "
+        "films need the ramp to grip more (at 0 um any trace of carrydown would turn a dry back "
+        "end into full oil).",
         f'| the paper\'s levels (`oil_friction: "paper"`) | 0.04 | 0.20 | 0 | '
         f"{d['paper_fit_objective']:.1f} | {f['terms']} |",
         "",
-        f"The intervals are the levels whose J is within s^2 = {f['scale_s2']:.2f} of the "
-        f"minimum (s^2 = J_min / (n - 3), n = {f['terms']} cases: the facts and the model "
-        "disagree by more than the facts' looseness, so the interval is widened by that "
-        "factor). J is not smooth in the levels: the stepped oil of the patterns makes the "
+        f"The intervals are the points whose J is within s^2 = {f['scale_s2']:.2f} of the "
+        f"minimum (s^2 = max(1, J_min / (n - 3)), n = {f['terms']} cases; "
+        + (
+            "the facts and the model disagree by more than the facts' looseness, so the "
+            "interval is widened by that factor"
+            if f["scale_s2"] > 1.0
+            else "J_min / (n - 3) is below 1: the model meets the fit facts within their "
+            "looseness on the whole"
+        )
+        + "). J is not smooth in the levels: the stepped oil of the patterns makes the "
         "breakpoint jump as a line crosses a step, so neighbouring grid points differ by a "
         "few units of J; the intervals include that. Points on the edge of the grids "
         "(the smallest mu_oil tried) bound an interval from the grid, not from the data.",
@@ -346,13 +419,15 @@ def page(d: dict[str, Any]) -> str:
         )
     L += [
         "",
-        "The films on the fitted patterns run from 0.30 um (the house shot's outside boards, "
-        "one load each way over 40 ft) to 3 um (its middle). A board whose film is below h1 "
+        f"The films on the fitted patterns run from {films[0]:.2f} um (the house shot's "
+        f"outside boards, one load each way over 40 ft) to {films[1]:.1f} um. A board whose "
+        "film is below h1 "
         "grips more than full oil; h1 decides how much the thin outside oil holds a ball "
         "that plays out there. No published friction-against-film curve exists (domain notes "
         "6.3): h1 is known only as well as this profile says, and the friction of a film worn "
         "thinner than the fresh patterns' (sessions) is an extrapolation of the ramp.",
         "",
+        *_findings(d),
         "## The facts against bowlrec",
         "",
         "Each row is one comparison: the cases it covers, the published range, bowlrec's "
@@ -504,6 +579,125 @@ def page(d: dict[str, Any]) -> str:
     return "\n".join(L).rstrip() + "\n"
 
 
+def _lines_of(d: dict[str, Any], styles: tuple[str, ...], patterns: tuple[str, ...]) -> list[Any]:
+    return [
+        r
+        for r in d["calibrated"]["lines"]
+        if "@" not in r["case"]
+        and r["case"].split(" / ")[0] in styles
+        and r["case"].split(" / ")[1] in patterns
+    ]
+
+
+def _span(rows: list[Any], key: str, fmt: str = ".1f") -> str:
+    vals = [r[key] for r in rows if r[key] is not None]
+    return f"{min(vals):{fmt}} to {max(vals):{fmt}}" if vals else "-"
+
+
+STORM = "storm_test_41ft_breakpoint_3_to_5"
+STYLE_ORDER = ("stroker", "tweener", "cranker", "two-handed")
+
+
+def _tension(d: dict[str, Any]) -> list[str]:
+    """The fit without Storm's line against the fit with it."""
+    f = d["fit"]
+    grid = f["grid"]
+    alone = min(grid, key=lambda r: r["objective"] - r["by_fact"].get(STORM, 0.0))
+    at_best = min(grid, key=lambda r: r["objective"])
+    return [
+        "- **Two kinds of facts pull the oil's friction apart.** Without Storm's line the "
+        f"fit's facts are best met at mu_oil {alone['mu_oil']:.4g}, mu_dry "
+        f"{alone['mu_dry']:.3g}, full oil from {alone['ramp_um']:g} um (J = "
+        f"{alone['objective'] - alone['by_fact'].get(STORM, 0.0):.1f} without it, and "
+        f"{alone['by_fact'].get(STORM, 0.0):.1f} from Storm's line there): a nearly "
+        "frictionless front keeps the spin for the back end, so the rule-of-31 lines enter "
+        "steeply, but a line launched outward then runs into the gutter. With it the minimum "
+        f"is mu_oil {at_best['mu_oil']:.4g} (Storm's line {at_best['by_fact'].get(STORM, 0.0):.1f}"
+        f", the rest {at_best['objective'] - at_best['by_fact'].get(STORM, 0.0):.1f}). No "
+        "pair of levels meets both, and the thin-film ramp (profiled above) does not reconcile "
+        "them: with two friction levels and "
+        "Coulomb friction the ball cannot both keep its spin on the oil of a deep line and "
+        "turn on the oil of an outward one. The default takes the objective's best levels with "
+        "Storm's measured line in it; the entry angles above are what they give.",
+    ]
+
+
+def _storm_line(d: dict[str, Any]) -> list[str]:
+    """Storm's measured line at the calibrated and at the paper's levels."""
+
+    def lines(which: str) -> list[Any]:
+        return [r for r in d[which]["lines"] if "@" in r["case"]]
+
+    def where(rows: list[Any]) -> str:
+        pins = [r for r in rows if r["entry_board"] is not None]
+        if not pins:
+            return f"all {len(rows)} go into the gutter"
+        text = (
+            f"break on boards {_span(pins, 'breakpoint_board')} and reach the pins on boards "
+            f"{_span(pins, 'entry_board')}"
+        )
+        gutter = len(rows) - len(pins)
+        return text + (f" ({gutter} of {len(rows)} go into the gutter)" if gutter else "")
+
+    return [
+        f"- **Storm's test line** (laydown 28, board 17 at the arrows; measured breakpoints on "
+        f"boards 3-5 and boards 15-22 at the pins): the hook bowlers' balls "
+        f"{where(lines('calibrated'))} at the calibrated levels, and "
+        f"{where(lines('paper'))} at the paper's. A line launched 3.7 deg outward needs the "
+        "oil to turn the ball before the end of the pattern; it is the set's one measured "
+        "trajectory, and the fact that holds mu_oil up.",
+    ]
+
+
+def _findings(d: dict[str, Any]) -> list[str]:
+    """What the comparison shows and where it falls short, in numbers from this run."""
+    from bowlrec.bowling import calibration as cal
+
+    hook = ("tweener", "cranker", "two-handed")
+    good = _lines_of(d, hook, cal.FIT_PATTERNS)
+    kegel = _lines_of(d, hook, cal.HELD_OUT_PATTERNS)
+    stroker = _lines_of(d, ("stroker",), (*cal.FIT_PATTERNS, *cal.HELD_OUT_PATTERNS))
+    house = _lines_of(d, hook, ("house_shot_approx",))
+    house_all = _lines_of(d, STYLE_ORDER, ("house_shot_approx",))
+    stonehenge = _lines_of(d, STYLE_ORDER, ("kegel_stonehenge",))
+    inside = sum(
+        1 for r in good if r["entry_angle_deg"] is not None and 4.0 <= r["entry_angle_deg"] <= 6.0
+    )
+    return [
+        "## What it shows, and where it falls short",
+        "",
+        f"- **The house shot and the sport shapes** (the fitted patterns): the tweener, cranker "
+        f"and two-hander enter at {_span(good, 'entry_angle_deg', '.2f')} deg on the "
+        f"rule-of-31 line ({inside} of {len(good)} inside 4-6 deg), breaking at "
+        f"{_span(good, 'breakpoint_ft')} ft ({sum(r['found'] for r in good)} of {len(good)} "
+        f"lines found to tolerance); on the house shot the breakpoint sits at "
+        f"{_span(house, 'breakpoint_ft')} ft, against the published 40-45 ft. Broken "
+        f"further out, on board {CLIFTON_BOARD:g} (the outside end of Ron Clifton's "
+        "best-carry zone, boards 5-8 at about 40 ft), the same bowlers' house-shot lines enter "
+        f"at {_span(d['calibrated']['clifton'], 'entry_angle_deg', '.2f')} deg, breaking at "
+        f"{_span(d['calibrated']['clifton'], 'breakpoint_ft')} ft (the house-shot example is "
+        "such a line).",
+        f"- **Strokers** enter at {_span(stroker, 'entry_angle_deg', '.2f')} deg on every "
+        "pattern: below the 4-6 deg window, as their rolling angle says (the lines table). "
+        "No source gives an entry angle per bowler type to compare with.",
+        f"- **The published Kegel sheets** (held out) give the hook bowlers "
+        f"{_span(kegel, 'entry_angle_deg', '.2f')} deg: their lines have to swing out from far "
+        f"inside (launch {_span(kegel, 'launch_angle_deg', '.2f')} deg, laydown up to board "
+        f"{max(r['laydown_board'] for r in kegel):.0f}) to break on the rule-of-31 board, and "
+        "a wide swing costs entry angle. The oil model lays each step's oil over its own "
+        "distance only: the brush's buffing beyond the last load is not modelled (Big Ben's "
+        "oil ends at 36 ft of its 44, and its outside boards are dry from 4 ft), so these "
+        "lanes are drier outside and shorter than their sheets' distances say, where the "
+        "library's approximations oil every board to the pattern's length.",
+        *_storm_line(d),
+        f"- **The roll** starts at {_span(house_all, 'roll_ft')} ft on the house shot (the "
+        f"coaching sources: 40-50 ft) and at {_span(stonehenge, 'roll_ft')} ft on the "
+        "published 40 ft Stonehenge sheet (held out), whose oil ends early on the outside.",
+        *_tension(d),
+        "",
+    ]
+
+
 def results_md(d: dict[str, Any]) -> str:
     f = d["fit"]
     return "\n".join(
@@ -514,11 +708,14 @@ def results_md(d: dict[str, Any]) -> str:
             f"CPUs), {d['date']}, {d['seconds']:.0f} s. The page with every fact: "
             "[docs/calibration.md](../../docs/calibration.md).",
             "",
-            f"- fitted: mu_oil {f['mu_oil']:.4g} ({f['mu_oil_interval'][0]:.4g}-"
-            f"{f['mu_oil_interval'][1]:.4g}), mu_dry {f['mu_dry']:.3g} "
+            f"- default (fitted): mu_oil {f['default']['mu_oil']:.4g} "
+            f"({f['mu_oil_interval'][0]:.4g}-"
+            f"{f['mu_oil_interval'][1]:.4g}), mu_dry {f['default']['mu_dry']:.3g} "
             f"({f['mu_dry_interval'][0]:.3g}-{f['mu_dry_interval'][1]:.3g}), full oil from "
-            f"{f['ramp_um']:g} um ({f['ramp_um_interval'][0]:g}-{f['ramp_um_interval'][1]:g}); J = "
-            f"{f['objective']:.1f} over {f['terms']} cases (the paper's 0.04 / 0.20: "
+            f"{f['default']['ramp_um']:g} um ({f['ramp_um_interval'][0]:g}-"
+            f"{f['ramp_um_interval'][1]:g}); J = "
+            f"{f['default']['objective']:.1f} over {f['terms']} cases (the minimum "
+            f"{f['objective']:.1f}; the paper's 0.04 / 0.20: "
             f"{d['paper_fit_objective']:.1f})",
             f"- held out: J = {d['held_out_objective']['calibrated']:.1f} calibrated, "
             f"{d['held_out_objective']['paper']:.1f} at the paper's levels "
@@ -543,7 +740,7 @@ def main() -> None:
         write_fit(f)
     else:
         f = json.loads(out_json.read_text())["fit"]
-    levels = (f["mu_oil"], f["mu_dry"], f["ramp_um"])
+    levels = (f["default"]["mu_oil"], f["default"]["mu_dry"], f["default"]["ramp_um"])
     with ProcessPoolExecutor(2) as ex:
         calibrated_f = ex.submit(evaluate, *levels)
         paper_f = ex.submit(evaluate, 0.04, 0.20, 0.0)

@@ -2,9 +2,9 @@
 
     python -m benchmarks.oil_grid [--tracks 300] [--seed 0] [--out benchmarks/results]
 
-**Tracks.** A right-hander's house shot (``examples/bowler/house-shot-right.json``: a
-tweener's 17.5 mph, 350 rpm, 45 deg rotation on the rule-of-31 line of ``house_shot_approx``,
-laydown board 20.5 over board 15.8 at the arrows) repeated with the ``pro`` release scatter
+**Tracks.** A right-hander's house shot (``examples/bowler/house-shot-right.json``: a tweener's
+17.5 mph, 350 rpm, 45 deg rotation on ``house_shot_approx``, laydown board 17.0 over board 10.7
+at the arrows, breaking on board 5 at 40 ft) repeated with the ``pro`` release scatter
 (:mod:`bowlrec.bowling.variance`), each repeat simulated with its samples every 5 ms: the
 contact point's path (x, y). The tracks are simulated once on the fresh lane and applied shot
 after shot; the wear's feedback on the tracks (a worn lane hooks a little earlier) is left out
@@ -436,8 +436,8 @@ def _markdown(d: dict[str, Any]) -> str:
         "",
         "## Calibration",
         "",
-        f"Tracks: {d['n_tracks']} repeats of the house-shot example ({PATTERN}, a tweener's "
-        "rule-of-31 line) with the `pro` release scatter, recorded every 5 ms; "
+        f"Tracks: {d['n_tracks']} repeats of the house-shot example ({PATTERN}, a tweener "
+        "breaking on board 5 at 40 ft) with the `pro` release scatter, recorded every 5 ms; "
         f"{c['shots_kegel']} shots = {KEGEL_GAMES} games x {DELIVERIES_PER_GAME} deliveries. "
         f"Area of play: {c['area_of_play_cells']} cells of 1 ft x 1 board, boards "
         f"{c['area_of_play_boards'][0]}-{c['area_of_play_boards'][1]}, "

@@ -46,9 +46,12 @@ def test_the_fit_never_sees_the_held_out_patterns() -> None:
 
 
 def test_the_default_levels_are_the_committed_fit() -> None:
-    fit = RESULTS["fit"]
+    fit = RESULTS["fit"]["default"]
     levels = calibrated()
     assert (levels.mu_oil, levels.mu_dry) == (fit["mu_oil"], fit["mu_dry"])
+    assert levels.oiled_at_or_above_um == fit["ramp_um"]
+    # the default is the best point at the thickest film the fit's interval allows
+    assert fit["ramp_um"] == RESULTS["fit"]["ramp_um_interval"][1]
     assert levels.mu_oil_interval[0] <= levels.mu_oil <= levels.mu_oil_interval[1]
     assert levels.mu_dry_interval[0] <= levels.mu_dry <= levels.mu_dry_interval[1]
     m = OilFrictionMapping()
@@ -176,3 +179,37 @@ def test_runs_of_an_older_bowler_layer_are_flagged() -> None:
     assert two is not None and "calibrated" in two and "PAP" not in two
     one = bowler_layer_warning({})
     assert one is not None and "PAP" in one and "calibrated" in one
+
+
+@pytest.mark.parametrize(
+    ("style", "pattern"),
+    [("tweener", "house_shot_approx"), ("cranker", "sport_medium_41ft_approx"),
+     ("two-handed", "sport_long_45ft_approx"), ("stroker", "kegel_stonehenge")],
+)  # fmt: skip
+def test_the_pages_lines_are_what_the_code_gives(style: str, pattern: str) -> None:
+    """docs/calibration.md's lines table, rerun at the default levels: the same line, the same
+    breakpoint and entry (the committed results are not stale)."""
+    case = cal.Case(style, pattern)
+    fresh = cal.run_case(case, OilFrictionMapping())
+    committed = next(r for r in RESULTS["calibrated"]["lines"] if r["case"] == case.label())
+    for key in ("found", "laydown_board", "launch_angle_deg", "breakpoint_board"):
+        assert getattr(fresh, key) == pytest.approx(committed[key], abs=1e-9), key
+    assert fresh.entry_angle_deg == pytest.approx(committed["entry_angle_deg"], abs=1e-9)
+    if fresh.found:  # a found line breaks on the rule-of-31 board, to the search's tolerance
+        assert abs(fresh.breakpoint_board - cal.breakpoint_board_for(fresh.length_ft)) <= 0.1
+
+
+def test_a_hook_bowlers_house_line_in_cliftons_zone_enters_the_pocket() -> None:
+    """A line breaking on board 5 at about 40 ft (Clifton's best-carry zone on a house shot)
+    enters the pocket window for a tweener, as the house-shot example does."""
+    scene = cal.case_scene(cal.Case("tweener", "house_shot_approx"), OilFrictionMapping())
+    scene = scene.model_copy(
+        update={
+            "ball": scene.ball.model_copy(update={"coverstock": "reactive_pearl", "surface": 1500})
+        }
+    )
+    result = aim(scene, ("laydown", "launch"), POCKET, breakpoint_board=5.0)
+    shot = result.shot
+    assert result.found, result.message
+    assert POCKET.contains(shot.entry_board, shot.entry_angle_deg), result.message
+    assert 35.0 <= shot.breakpoint_ft <= 45.0  # "40 feet or so down the lane"

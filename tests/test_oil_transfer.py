@@ -247,22 +247,23 @@ def test_power_ramp() -> None:
     assert np.allclose(oiled_fraction(h, power), [0, 0.25**0.4, 0.5**0.4, 1, 1])
     mu = mu_of_film(h, power)
     assert np.allclose(mu, 0.20 - (0.20 - 0.04) * np.clip(h / 2.0, 0, 1) ** 0.4)
-    # the paper's levels are a step (any film is oil); the calibrated default ramps up to 1 um
+    # the paper's levels are a step (any film is oil); the calibrated default ramps up to h1
     assert np.array_equal(oiled_fraction(h, OilFrictionMapping.paper()), [0, 1, 1, 1, 1])
     default = OilFrictionMapping()
-    assert (default.ramp, default.oiled_at_or_above_um) == ("power", 1.0)
-    assert np.allclose(oiled_fraction(h, default), [0, 0.5**0.4, 1, 1, 1])
+    h1 = default.oiled_at_or_above_um
+    assert default.ramp == "power" and h1 > 0.0
+    assert np.allclose(oiled_fraction(h, default), np.clip(h / h1, 0.0, 1.0) ** 0.4)
     with pytest.raises(ValidationError, match="ramp"):
         OilFrictionMapping(ramp="cubic")  # type: ignore[arg-type]
 
 
 def test_worn_lane_raises_friction_under_the_power_ramp() -> None:
     fresh = session_oil_grid(preset("house_shot_approx"))
-    mapping = OilFrictionMapping()  # the calibrated mapping: full oil from 1 um, power below
+    mapping = OilFrictionMapping()  # the calibrated mapping: full oil from h1, power below
     x = np.linspace(0.0, LANE_M, 300)
     worn, _, _ = apply_track(
         fresh, x, np.full_like(x, 10.5 * BW), lane_width_m=W,
-        model=TransferModel(pickup_fraction=0.5, carrydown_fraction=0.0, track_width_m=BW),
+        model=TransferModel(pickup_fraction=0.8, carrydown_fraction=0.0, track_width_m=BW),
         ball_load_ul=0.0,
     )  # fmt: skip
     f0 = grid_friction(fresh, lane_width_m=W, mapping=mapping)
@@ -274,10 +275,11 @@ def test_worn_lane_raises_friction_under_the_power_ramp() -> None:
         return float(f.mu[i][j])
 
     assert mu_at(f0, 1.0, 10.5 * BW) == pytest.approx(mapping.mu_oil)
-    # the track halved the film on board 11 (the cell at 10.5 board widths): 1.82 -> 0.91 um,
-    # below the 1 um of full oil, so the ramp raises its friction
-    h = 0.5 * float(film_thickness_um(fresh, W)[0, 10])
+    # the track took 80 % of the film on board 11 (the cell at 10.5 board widths): 1.82 ->
+    # 0.36 um, below the film of full oil, so the ramp raises its friction
+    h = 0.2 * float(film_thickness_um(fresh, W)[0, 10])
     assert h < mapping.oiled_at_or_above_um
-    expected = mapping.mu_dry - (mapping.mu_dry - mapping.mu_oil) * h**0.4
+    h1 = mapping.oiled_at_or_above_um
+    expected = mapping.mu_dry - (mapping.mu_dry - mapping.mu_oil) * (h / h1) ** 0.4
     assert mu_at(f1, 1.0, 10.5 * BW) == pytest.approx(expected, rel=1e-12)
     assert mu_at(f1, 1.0, 20.5 * BW) == pytest.approx(mapping.mu_oil)

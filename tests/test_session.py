@@ -309,3 +309,42 @@ def test_sessions_on_a_dask_cluster_equal_local_ones(tmp_path: Path) -> None:
     ids = {r["run_id"] for r in Archive(tmp_path / "dask", create=False).list_runs()}
     assert ids == {r["run_id"] for r in Archive(tmp_path / "local", create=False).list_runs()}
     assert len(ids) == 6
+
+
+def _adjusting(adjust: Any) -> Any:
+    return _spec(
+        bowlers=[
+            {"name": "A", "scene": {"delivery": {"style": "tweener"}}, "scatter": "league",
+             "aim": False, "adjust": adjust},
+        ],
+    )  # fmt: skip
+
+
+def test_bowlers_move_feet_and_target_toward_repeated_misses() -> None:
+    """The 2-and-1 move: after two first balls in a row on one side of the pocket's boards the
+    laydown moves 2 boards and the target 1 toward the miss; a ball in the window, or a miss on
+    the other side, starts the count again; adjust null keeps the line."""
+    result = run_session(_adjusting({"feet_boards": 2.0, "target_boards": 1.0}), None)
+    pocket = result.spec.pocket
+    firsts = [r for r in result.rows if r.ball == 1]
+    laydown, target = firsts[0].laydown_board, firsts[0].target_board
+    streak: list[float] = []
+    moves = 0
+    for before, after in zip(firsts, firsts[1:], strict=False):
+        expected_move = 0.0
+        if before.entry_board is not None:
+            if pocket.board_min <= before.entry_board <= pocket.board_max:
+                streak = []
+            else:
+                side = 1.0 if before.entry_board > pocket.board_max else -1.0
+                streak = [*streak, side] if streak and streak[-1] == side else [side]
+                if len(streak) == 2:
+                    expected_move, streak = side, []
+        # every ball of a frame is thrown from the line of that frame's first ball
+        assert after.laydown_board == pytest.approx(laydown + 2.0 * expected_move)
+        assert after.target_board == pytest.approx(target + 1.0 * expected_move)  # type: ignore[operator]
+        laydown, target = after.laydown_board, after.target_board
+        moves += expected_move != 0.0
+    assert moves >= 1  # the league scatter on a changing lane makes the bowler move
+    kept = run_session(_adjusting(None), None)
+    assert {r.laydown_board for r in kept.rows} == {firsts[0].laydown_board}

@@ -69,7 +69,7 @@ class TransferModel(SpecModel):
     from the area of play within about 4-5 games per lane"; the others argued there)."""
 
     pickup_fraction: NonNegativeFloat = Field(
-        default=0.166,
+        default=0.168,
         le=1.0,
         description="Fraction of the oil under the track lifted by one pass, in [0, 1] "
         "(calibrated to Kegel's >40 % removed from the area of play in 4.5 games; Fresh Oil "

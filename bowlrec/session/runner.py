@@ -13,14 +13,16 @@ balls cross the lane, stated in docs/sessions.md.
 
 **Each release** is the bowler's shot with a release scatter drawn from the session's seed and
 the shot number (``numpy.random.default_rng([seed, shot])``), launched at the angle that puts
-the bowler's line over its target at the arrows. **Adjusting.** When ``after_misses`` first balls
-in a row (default 2) enter outside the pocket's board window on the same side, a bowler with
-``adjust`` moves feet and target toward the miss (by default the 2-and-1 move: laydown 2
-boards, target 1 board; toward higher boards after high hits) and aims the new line on the
-lane as it is then (the launch angle that crosses the new target); a bowler without
-``adjust`` keeps the line, and the lane's change shows as drift of the breakpoint and entry. A
-move that would leave the lane (laydown or target beyond boards 1-39) or whose target cannot
-be reached is not made.
+the bowler's line over its target at the arrows (a bowler scene given a launch angle instead
+aims at the board its line crosses at the arrows on the fresh lane).
+
+**Adjusting.** When ``after_misses`` first balls in a row (default 2) enter outside the
+pocket's board window on the same side, a bowler with ``adjust`` moves feet and target toward
+the miss (by default the 2-and-1 move: laydown 2 boards, target 1 board; toward higher boards
+after high hits) and aims the new line on the lane as it is then (the launch angle that
+crosses the new target); a bowler without ``adjust`` keeps the line, and the lane's change
+shows as drift of the breakpoint and entry. A move that would leave the lane (laydown or
+target beyond boards 1-39) or whose target cannot be reached is not made.
 
 **Run IDs and resuming.** A shot's run ID hashes its Plan, the physics version, the session ID
 (:meth:`SessionSpec.session_id`) and the shot number, so the same delivery in another session
@@ -94,7 +96,8 @@ class ShotRow:
     entry_angle_deg: float | None
     breakpoint_board: float
     breakpoint_ft: float
-    #: the bowler's line for this shot: laydown board and target board at the arrows
+    #: the bowler's line for this shot: laydown board and target board at the arrows (None for
+    #: a line that does not reach the arrows)
     laydown_board: float
     target_board: float | None
     lane_oil_ul: float
@@ -212,6 +215,12 @@ class _Session:
             self.aims[b.name] = found.message
         shot = Shot(scene, lane=lane, drilled=drilled)
         launch = shot.launch_angle(scene.delivery)
+        d = scene.delivery
+        if d.target_board_at_arrows is None:  # aimed by its launch angle: its target is where
+            board = shot.arrows_board(d, launch)  # that line crosses the arrows, fresh lane
+            if board is not None:
+                update = {"target_board_at_arrows": board, "launch_angle_deg": None}
+                scene = scene.model_copy(update={"delivery": d.model_copy(update=update)})
         return _Bowler(b.name, scene, drilled, launch, b.scatter_model(), b.adjust)
 
     def adjust(self, bowler: _Bowler, row: ShotRow) -> None:
@@ -232,9 +241,7 @@ class _Session:
         bowler.misses.clear()
         d = bowler.scene.delivery
         target = d.target_board_at_arrows
-        if target is None:
-            target = row.target_board
-        if target is None:
+        if target is None:  # a line that never reaches the arrows: nothing to move
             return
         laydown = d.laydown_board + side * move.feet_boards
         target = target + side * move.target_boards
@@ -403,12 +410,6 @@ def _play(
     return _row(s, bowler, rid, traj, state, simulated=True)
 
 
-def _arrows_board(bowler: _Bowler, crossed: float | None) -> float | None:
-    """The bowler's target at the arrows: the scene's, else the board the shot crossed."""
-    target = bowler.scene.delivery.target_board_at_arrows
-    return crossed if target is None else target
-
-
 def _row(
     s: _Session,
     bowler: _Bowler,
@@ -436,7 +437,7 @@ def _row(
         breakpoint_board=rep.breakpoint_board,
         breakpoint_ft=rep.breakpoint_ft,
         laydown_board=bowler.scene.delivery.laydown_board,
-        target_board=_arrows_board(bowler, rep.arrows_board),
+        target_board=bowler.scene.delivery.target_board_at_arrows,
         lane_oil_ul=ledger.lane_after_ul,
         lifted_ul=ledger.lifted_ul,
         deposited_ul=ledger.deposited_ul,

@@ -20,7 +20,7 @@ changes shot by shot.
 Each bowler's scene gives the ball, layout, delivery and target; the session's ``pattern``
 replaces the scene's own (every bowler bowls on the same lane). The session's friction mapping
 (``oil_friction``, default the calibrated mapping of bowler scenes, whose power ramp below a
-1 um film makes breakdown change the friction) replaces the scenes' own.
+0.5 um film makes breakdown change the friction) replaces the scenes' own.
 """
 
 from __future__ import annotations
