@@ -238,8 +238,8 @@ def clifton_lines(mapping: Any) -> list[dict[str, Any]]:
 
 
 def pocket_rates(mu_oil: float, mu_dry: float, ramp_um: float, n: int) -> list[dict[str, Any]]:
-    """Each bowler type's rule-of-31 house-shot line repeated ``n`` times under each scatter
-    preset: the share entering the pocket window."""
+    """Each bowler type's house-shot line breaking on :data:`CLIFTON_BOARD`, repeated ``n``
+    times under each scatter preset: the share entering the pocket window."""
     from bowlrec.bowling import calibration as cal
     from bowlrec.bowling.aim import aim
     from bowlrec.bowling.pocket import POCKET
@@ -249,9 +249,7 @@ def pocket_rates(mu_oil: float, mu_dry: float, ramp_um: float, n: int) -> list[d
     for style in ("stroker", "tweener", "cranker", "two-handed"):
         case = cal.Case(style, "house_shot_approx")
         scene = cal.case_scene(case, _mapping(mu_oil, mu_dry, ramp_um))
-        aimed = aim(
-            scene, ("laydown", "launch"), POCKET, breakpoint_board=cal.breakpoint_board_for(40.0)
-        )
+        aimed = aim(scene, ("laydown", "launch"), POCKET, breakpoint_board=CLIFTON_BOARD)
         for preset in ("pro", "league"):
             r = release_scatter(aimed.scene, PRESETS[preset], n=n, seed=0)
             rows.append(
@@ -493,7 +491,8 @@ def page(d: dict[str, Any]) -> str:
         "",
         "## Pocket-hit rates",
         "",
-        "Each type's house-shot line repeated with the release scatter of `bowlrec variance` "
+        f"Each type's house-shot line breaking on board {CLIFTON_BOARD:g} (Clifton's best-carry "
+        "zone) repeated with the release scatter of `bowlrec variance` "
         f"({d['pocket_n']} repeats, seed 0): the share entering the pocket window (board "
         "17-18, 4-6 deg). The only sourced rate is a PBA telecast on a league-type shot: 54 "
         "pocket hits in 66 shots (fact `pba_tv_strike_60_carry_74`; 95 % interval "
