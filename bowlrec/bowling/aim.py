@@ -15,20 +15,23 @@ One free variable is solved for the entry board (``Pocket.board`` at the head pi
 the entry board and the entry angle (``Pocket.angle_deg``), or, given ``breakpoint_board``, for
 the entry board and the board of the breakpoint (the line a bowler picks on a pattern: the
 breakpoint where the pattern puts it, e.g. Kegel's rule of 31; the entry angle is then what
-the ball gives). With ``target`` free the launch angle
-follows from it (:class:`~bowlrec.bowling.scene.Shot`); with ``launch`` free the scene aims by
-its launch angle. Every evaluation is one summary-only kernel run (a few with a target at the
-arrows), the arrows and the turning point observed on the way.
+the ball gives). With ``target`` free the launch angle follows from it
+(:class:`~bowlrec.bowling.scene.Shot`); with ``launch`` free the scene aims by its launch
+angle. Every evaluation is one summary-only kernel run (a few with a target at the arrows), the
+arrows and the turning point observed on the way.
 
 Method: one variable, the secant method from the scene's own value; if that does not converge,
 a scan of 13 values across the bounds and the Illinois variant of regula falsi on the sign
 change nearest the start. Two variables: the first is searched by the secant method for the
 entry angle while, for each of its values, the second is solved for the entry board (warm
-started from the last solution). At most 60 shots are tried. Converged when
-the entry board is within ``BOARD_TOL`` and (two variables) the entry angle within
-``ANGLE_TOL_DEG``, or when the closest shot tried lies inside the pocket's window (board, and
-angle with two variables); otherwise the result says the pocket was not reached and keeps the
-closest shot tried (distance: boards, plus degrees with two variables).
+started from the last solution); for a breakpoint board the first is found by the same scan
+and Illinois (the breakpoint can jump where a line crosses an oil step, which a secant does
+not survive). At most 60 shots are tried (400 for a breakpoint). Converged when the entry board
+is within ``BOARD_TOL`` and (two variables) the entry angle within ``ANGLE_TOL_DEG`` or the
+breakpoint within ``BREAKPOINT_TOL``, or when the closest shot tried lies inside the pocket's
+window (board, and angle or breakpoint with two variables); otherwise the result says the
+pocket was not reached and keeps the closest shot tried (distance: boards, plus degrees or
+breakpoint boards with two variables).
 """
 
 from __future__ import annotations
