@@ -17,11 +17,13 @@ breakpoint about a board further out (Bowling This Month: a 38 ft pattern exits 
 (:func:`~bowlrec.bowling.aim.aim` with ``breakpoint_board``). The quantities compared are what
 that line gives: where the breakpoint falls along the lane, the entry angle, where the ball
 starts to roll, the board at the end of the pattern, and how the entry board moves when the
-same line is thrown 1 mph slower or with 10 % more revs.
+same line is thrown 1 mph slower or with 10 % more revs. A comparison may instead give its own
+line (laydown board and target at the arrows: Storm's measured test line).
 
 **The score** of a quantity against a fact with range [low, high]: z = (value - centre) /
 half-width, so that |z| <= 1 is inside the fact's own looseness; a one-sided fact (only low or
-only high) scores 0 on its side. The fit minimises the sum of z^2 over the ``fit`` facts
+only high) scores 0 on its side and the distance past its bound (in the quantity's units) on
+the other. The fit minimises the sum of z^2 over the ``fit`` facts
 (``benchmarks/calibration.py``).
 """
 

@@ -7,8 +7,9 @@ other covers and surfaces scale these levels by their factors. Two sets:
 * :data:`PAPER`: Frohlich (2004), 0.04 on oil and 0.20 on the dry lane, the levels of the
   paper's scenes and of ``oil_friction: "paper"`` in a bowler scene.
 * :func:`calibrated`: the levels fitted to published observables of ball motion (breakpoints,
-  entry angles, where the ball rolls) by ``python -m benchmarks.calibration --fit``, which
-  writes ``data/calibration/friction_fit.json``; the default of every bowler scene and session.
+  entry angles, where the ball rolls, a measured line) by ``python -m benchmarks.calibration
+  --fit``, which writes ``data/calibration/friction_fit.json``, with the film from which a
+  board counts as fully oiled; the default of every bowler scene and session.
   The fit, its objective, its uncertainty and the held-out comparison are in
   ``docs/calibration.md``.
 """

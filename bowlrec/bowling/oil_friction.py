@@ -5,7 +5,7 @@ piecewise-constant grid, :class:`~bowlrec.spec.friction.GridFriction`).
 **Oil depth** is the film thickness h (µm) of a grid cell: its oil volume over its area,
 h = V / (dx dy) (1 µL per m^2 = 0.001 µm; 1 µL on a board-foot of a 41.5 in lane, 0.3048 m x
 27.03 mm, is 0.1214 µm). No published friction-vs-oil curve is known (domain notes §6.3), so the
-mapping is a two-level model with an optional linear ramp, every number a parameter:
+mapping is a two-level model with a ramp between them, every number a parameter:
 
     s(h) = 0                      if h <= dry_at_or_below_um
          = 1                      if h >= oiled_at_or_above_um (and h > dry_at_or_below_um)
@@ -26,12 +26,13 @@ mu_oil unchanged. Entries of ``dry_factor`` / ``oil_factor`` replace a coverstoc
 factor; the grit model's numbers are fields too. ``cover_model: "none"`` makes every factor 1
 except those entries: the same friction for every ball.
 
-**Defaults are the calibrated levels** for the reference ball
-(:func:`~bowlrec.bowling.friction_levels.calibrated`: fitted to published breakpoints, entry
-angles and roll points, ``docs/calibration.md``) with h0 = h1 = 0 (any oil is "oiled"), so a
-cell is at mu_oil if it carries oil and at mu_dry if not. :meth:`OilFrictionMapping.paper`
-gives the paper's two levels instead (Frohlich 2004: 0.04 on oil, 0.20 dry; ``oil_friction:
-"paper"`` in a bowler scene). The paper's own scenes (:mod:`bowlrec.paper`) do not go through
+**Defaults are the calibration's** (:func:`~bowlrec.bowling.friction_levels.calibrated`:
+fitted to published breakpoints, entry angles, roll points and a measured line,
+``docs/calibration.md``): the reference ball's mu_oil and mu_dry, h0 = 0 and the power ramp up
+to the calibrated full-oil film h1, so a cell with a film of h1 or more is at mu_oil, a dry
+cell at mu_dry, and a thinner film between. :meth:`OilFrictionMapping.paper` gives the paper's
+two levels instead (Frohlich 2004: 0.04 on any oil, 0.20 dry; ``oil_friction: "paper"`` in a
+bowler scene). The paper's own scenes (:mod:`bowlrec.paper`) do not go through
 this mapping.
 
 **Positions outside the pattern's grid**: dry beyond the oil (x past its end, boards without
