@@ -340,7 +340,7 @@ def test_bowlers_move_feet_and_target_toward_repeated_misses() -> None:
                 streak = [*streak, side] if streak and streak[-1] == side else [side]
                 if len(streak) == 2:
                     expected_move, streak = side, []
-        # every ball of a frame is thrown from the line of that frame's first ball
+        # the move shows on the next first ball (a second ball in between throws it already)
         assert after.laydown_board == pytest.approx(laydown + 2.0 * expected_move)
         assert after.target_board == pytest.approx(target + 1.0 * expected_move)  # type: ignore[operator]
         laydown, target = after.laydown_board, after.target_board
