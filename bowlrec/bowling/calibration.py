@@ -39,7 +39,7 @@ from typing import Any, Literal
 
 from .aim import aim, evaluate
 from .delivery import BowlerDelivery
-from .oil import KegelPattern, RectanglePattern, preset
+from .oil import KegelPattern, RectanglePattern, pattern_statistics, preset
 from .oil_friction import OilFrictionMapping
 from .pocket import POCKET
 from .report import BowlerReport
@@ -225,10 +225,9 @@ class Case:
 
 
 def pattern_length_ft(pattern: KegelPattern | RectanglePattern) -> float:
-    """A pattern's length (ft): its sheet's oil pattern distance, or its oil's far end."""
-    if isinstance(pattern, KegelPattern):
-        return float(pattern.distance_ft)
-    return float(max(r.end_ft for r in pattern.rectangles))
+    """A pattern's length (ft): its sheet's oil pattern distance, or its oil's far end
+    (:func:`~bowlrec.bowling.oil.pattern_statistics`)."""
+    return float(pattern_statistics(pattern).distance_ft)
 
 
 def breakpoint_board_for(length_ft: float) -> float:
@@ -326,7 +325,7 @@ def run_case(case: Case, mapping: OilFrictionMapping) -> CaseResult:
         update={"ball": scene.ball.model_copy(update={"surface": 500}), "delivery": delivery}
     )
     rough = evaluate(Shot(rough_scene), delivery).report
-    exit_board = _board_at(shot, delivery, length)
+    exit_board = shot.board_at(delivery, base.launch_angle_deg, scene.lane.ft_to_x_m(length))
 
     def shift(r: BowlerReport) -> float | None:
         if r.entry_board is None or report.entry_board is None:
@@ -373,7 +372,7 @@ def rolling_angle_deg(scene: BowlerScene, delivery: BowlerDelivery, launch_deg: 
     a = math.radians(d.takeoff_angle_deg)
     vx, vy = d.speed_mps * math.cos(a), d.speed_mps * math.sin(a)
     wx, wy, _ = d.omega_radps
-    radius_m = scene.ball.radius_in * 0.0254
+    radius_m = scene.ball.radius_m
     k = (scene.ball.rg_in / scene.ball.radius_in) ** 2
     # w x z = (wy, -wx, 0)
     fx, fy = vx + k * radius_m * wy, vy - k * radius_m * wx
@@ -384,16 +383,6 @@ def rolling_angle_deg(scene: BowlerScene, delivery: BowlerDelivery, launch_deg: 
 def _roll_ft(report: BowlerReport) -> float:
     """Where the ball starts to roll (ft); the lane's length when it still slides there."""
     return _LANE_FT if report.slide_ft is None else float(report.slide_ft)
-
-
-def _board_at(shot: Shot, delivery: BowlerDelivery, ft: float) -> float | None:
-    """The board the path crosses ``ft`` from the foul line (None if it does not get there)."""
-    lane = shot.scene.lane
-    traj = shot.run(delivery.to_physical(lane, shot.launch_angle(delivery)), [lane.ft_to_x_m(ft)])
-    for ob in traj.observations:
-        if ob.station == 0:
-            return float(lane.y_to_board(ob.position_m[1], delivery.handedness))
-    return None
 
 
 @dataclass(frozen=True)

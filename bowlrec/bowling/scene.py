@@ -337,7 +337,14 @@ class Shot:
     def arrows_board(self, delivery: BowlerDelivery, launch_angle_deg: float) -> float | None:
         """The board the center crosses at the arrows when ``delivery`` is launched at
         ``launch_angle_deg`` (deg, toward higher boards); None if it never gets there."""
-        traj = self.run(delivery.to_physical(self.scene.lane, launch_angle_deg), [self.arrows_x_m])
+        return self.board_at(delivery, launch_angle_deg, self.arrows_x_m)
+
+    def board_at(
+        self, delivery: BowlerDelivery, launch_angle_deg: float, x_m: float
+    ) -> float | None:
+        """The board the center crosses at ``x_m`` (m from the foul line) when ``delivery`` is
+        launched at ``launch_angle_deg``; None if it never gets there."""
+        traj = self.run(delivery.to_physical(self.scene.lane, launch_angle_deg), [x_m])
         for ob in traj.observations:
             if ob.station == 0:
                 return self.scene.lane.y_to_board(ob.position_m[1], delivery.handedness)
