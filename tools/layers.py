@@ -45,6 +45,11 @@ FLOORS: list[tuple[str, tuple[str, ...], str]] = [
         ("bowlrec.paper_table", "bowlrec.testing"),
         "Table III compared; reference deliveries and the paper's RK4 scheme",
     ),
+    (
+        "pins",
+        ("bowlrec.pins",),
+        "the pin deck: pins, pin action (MuJoCo), leaves, scoring, spare targets",
+    ),
     ("bowlers", ("bowlrec.bowling",), "bowlers' language: balls, layouts, deliveries, oil, aim"),
     (
         "figures",
