@@ -11,6 +11,7 @@ from .scene_input import SceneSource, parse_scene_input
 if TYPE_CHECKING:
     from .archive import AddResult, Archive
     from .archive.group_commit import GroupCommitter
+    from .core.plan import Plan
     from .spec import Scene
 
 
@@ -26,10 +27,32 @@ def as_scene(scene: SceneSource) -> Scene:
 
 def simulate(scene: SceneSource) -> Trajectory:
     """Simulate one delivery from release to its outcome; see :class:`Trajectory`. ``scene``
-    as :func:`as_scene` takes it (SceneInputError when it is invalid)."""
+    as :func:`as_scene` takes it (SceneInputError when it is invalid). With ``options.pins``
+    the trajectory's ``pins`` holds what the pins did (:func:`with_pins`)."""
     from .core.solver import run_plan
 
-    return run_plan(as_scene(scene).resolve())
+    plan = as_scene(scene).resolve()
+    return with_pins(plan, run_plan(plan))
+
+
+def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
+    """``trajectory`` with its pins (:func:`bowlrec.pins.outcome.pin_outcome`) when ``plan``
+    asks for pin action, else as it is. MissingExtraError without the ``pins`` extra."""
+    if plan.pins is None:
+        return trajectory
+    import dataclasses
+
+    from .errors import MissingExtraError
+
+    try:
+        import mujoco  # noqa: F401
+    except ImportError as err:
+        raise MissingExtraError(
+            "pin action (options.pins) needs MuJoCo: pip install 'bowlrec[pins]'"
+        ) from err
+    from .pins.outcome import pin_outcome
+
+    return dataclasses.replace(trajectory, pins=pin_outcome(plan, trajectory))
 
 
 def simulate_into(
@@ -63,7 +86,7 @@ def simulate_into(
         except RunDamagedError as err:
             archive.set_aside(rid, found[0], f"damaged: {err.reason}")
     start = time.perf_counter()
-    traj = run_plan(plan, method)
+    traj = with_pins(plan, run_plan(plan, method))
     wall = time.perf_counter() - start
     used = (
         method if method != "auto" else ("closed_form" if use_closed_form(plan) else "integrator")

@@ -6,7 +6,7 @@ nothing, so any layer may read them.
 
 from __future__ import annotations
 
-__all__ = ["BOWLER_LAYER_VERSION", "PHYSICS_VERSION", "__version__"]
+__all__ = ["BOWLER_LAYER_VERSION", "PHYSICS_VERSION", "PIN_MODEL_VERSION", "__version__"]
 
 __version__ = "0.1.0"
 #: version of the physics model and its numerics; part of every run's provenance and run ID. It
@@ -20,3 +20,7 @@ PHYSICS_VERSION = "frohlich2004-dp54-3"
 #: 0.04 / 0.20, and drills the sphere's part of each hole where 2 removed the whole cylinder
 #: (:func:`bowlrec.provenance.bowler_layer_warning` says which applies to a stored run).
 BOWLER_LAYER_VERSION = 3
+#: version of the pin model (the deck, the pins' profile and mass properties, the contact model
+#: and its calibration, the rest and standing rules: bowlrec.pins); part of the run ID of every
+#: run with pin action (the engine's own version goes into provenance)
+PIN_MODEL_VERSION = "usbc-mujoco-1"

@@ -27,6 +27,13 @@ RUN_ID_LENGTH = 20
 def _canonical(value: Any) -> Any:
     import numpy as np
 
+    from bowlrec.core.plan import PinPlan
+
+    if isinstance(value, PinPlan):
+        return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, tuple):
+        return [_canonical(v) for v in value]
+
     if isinstance(value, np.ndarray):
         return {"shape": list(value.shape), "data": [_canonical(v) for v in value.ravel()]}
     if isinstance(value, float | np.floating):
@@ -42,14 +49,18 @@ def _canonical(value: Any) -> Any:
 
 def canonical_plan(plan: Plan) -> dict[str, Any]:
     """The Plan's physics-relevant fields as exact, JSON-serializable values (labels dropped,
-    and the optional external terms' fields at their defaults: scenes without these terms keep
-    the IDs they had before the fields existed; see ``bowlrec.core.plan.EXTERNAL_FIELDS``)."""
+    and the optional external terms' fields at their defaults, and ``pins`` when None: scenes
+    without these keep the IDs they had before the fields existed; see
+    ``bowlrec.core.plan.EXTERNAL_FIELDS``). Pin action enters with its model version and every
+    parameter, so a cached run never answers with another pin model's pinfall."""
     from bowlrec.core.plan import external_field_at_default
 
     return {
         f.name: _canonical(getattr(plan, f.name))
         for f in dataclasses.fields(plan)
-        if f.name != "labels" and not external_field_at_default(plan, f.name)
+        if f.name != "labels"
+        and not external_field_at_default(plan, f.name)
+        and not (f.name == "pins" and plan.pins is None)
     }
 
 

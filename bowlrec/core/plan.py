@@ -40,6 +40,40 @@ EXTERNAL_FIELDS = (
 
 
 @dataclass(frozen=True)
+class PinPlan:
+    """Pin action after the lane (``bowlrec.pins``): the pin model's version and parameters.
+
+    Restitution (dimensionless, the normal speed after an impact over the speed before) and
+    Coulomb friction (dimensionless) for each pair of surfaces; the ball's friction on the
+    deck is the lane's under the ball where the pins take over. ``seed``: None sets nominal
+    pins on their spots' centres; an integer draws each pin's mass, centre of gravity and
+    spotting within USBC's tolerances. ``standing``: the pins set before the ball (1-10).
+    """
+
+    model_version: str
+    ball_pin_restitution: float
+    ball_pin_friction: float
+    pin_pin_restitution: float
+    pin_pin_friction: float
+    pin_deck_restitution: float
+    pin_deck_friction: float
+    pin_kickback_restitution: float
+    pin_kickback_friction: float
+    #: the engine's time step (s) and the soft contacts' time constant (s)
+    timestep_s: float = 1e-4
+    contact_timeconst_s: float = 2e-3
+    #: pin action stops when everything is at rest or at this time after the hand-off (s)
+    max_time_s: float = 4.0
+    #: sampling interval of the pins' and the ball's recorded motion (s)
+    record_dt_s: float = 0.005
+    seed: int | None = None
+    standing: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10)
+    #: whose names the leave gets: "right", "left" or "auto" (a ball moving left at the pins
+    #: is a right-hander's)
+    hand: str = "auto"
+
+
+@dataclass(frozen=True)
 class Plan:
     """One delivery in plain SI numbers.
 
@@ -88,6 +122,8 @@ class Plan:
     max_steps: int = 2_000_000
     #: free-form labels carried to the result (not used by the physics)
     labels: dict[str, str] = field(default_factory=dict)
+    #: pin action after the lane; None: the run ends at the pins (and its run ID leaves it out)
+    pins: PinPlan | None = None
     # ---- optional external terms (none in the paper; all off by default; see
     # bowlrec.core.dynamics.external_accel and docs/lane-and-air.md) ----
     #: air drag coefficient C_D (dimensionless); 0: no drag

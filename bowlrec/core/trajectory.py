@@ -14,6 +14,8 @@ from bowlrec.errors import MissingExtraError
 if TYPE_CHECKING:
     import pandas as pd
 
+    from bowlrec.pins.outcome import PinOutcome
+
 #: the Summary's float metrics, as columns of many runs (NaN: no value)
 FLOAT_METRICS = (
     "slide_m",
@@ -127,6 +129,8 @@ class Trajectory:
     torques_Nm: dict[str, NDArray[np.float64]] = field(default_factory=dict)
     #: observed stations and turning points, in time order (empty unless asked for)
     observations: list[Observation] = field(default_factory=list)
+    #: the pins after the ball when the scene asked for pin action (options.pins), else None
+    pins: PinOutcome | None = None
 
     @property
     def n_samples(self) -> int:

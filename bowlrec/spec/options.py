@@ -8,6 +8,7 @@ from pydantic import Field, model_validator
 
 from ._base import PositiveFloat, SpecModel, fmt, spec_error
 from .limits import MAX_G_MPS2, MAX_SAMPLES_PER_RUN, MAX_SPEED_MPS, MAX_TIME_S
+from .pins import PinOptions
 
 __all__ = ["Options"]
 
@@ -64,6 +65,20 @@ class Options(SpecModel):
         le=MAX_G_MPS2,
         description=f"Gravitational acceleration (m/s^2), in (0, {MAX_G_MPS2:g}].",
     )
+    pins: bool | PinOptions = Field(
+        default=False,
+        description=(
+            "Pin action after the lane (the bowlrec[pins] extra): true for the pin model's "
+            "defaults, or its parameters; false: the run ends at the pins."
+        ),
+    )
+
+    @property
+    def pin_options(self) -> PinOptions | None:
+        """The pin model's parameters, or None without pin action."""
+        if self.pins is True:
+            return PinOptions()
+        return self.pins or None
 
     @model_validator(mode="after")
     def _samples_bounded(self) -> Options:

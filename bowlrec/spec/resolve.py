@@ -16,7 +16,8 @@ from bowlrec.core.codes import (
     SLIDE_TO_ROLL_EXACT,
     SLIDE_TO_ROLL_THRESHOLD,
 )
-from bowlrec.core.plan import Plan
+from bowlrec.core.plan import PinPlan, Plan
+from bowlrec.versions import PIN_MODEL_VERSION
 
 from .friction_grid import build_friction_grid, clip_to_lane
 from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quaternion_to_matrix
@@ -24,6 +25,7 @@ from .rotation import frame_from_axes, matrix_to_quaternion, normalized, quatern
 if TYPE_CHECKING:
     from .ball import Ball
     from .delivery import Delivery
+    from .pins import PinOptions
     from .scene import Scene
 
 __all__ = ["external_terms", "initial_rotation", "release_state", "resolve_scene"]
@@ -89,7 +91,32 @@ def resolve_scene(scene: Scene) -> Plan:
         slip_threshold_mps=float(options.slip_threshold_mps),
         max_time_s=float(options.max_time_s),
         labels={"scene": scene.name},
+        pins=pin_plan(options.pin_options),
         **external_terms(scene),
+    )
+
+
+def pin_plan(pins: PinOptions | None) -> PinPlan | None:
+    """The Plan's pin action (the pin model's version and parameters), None without it."""
+    if pins is None:
+        return None
+    return PinPlan(
+        model_version=PIN_MODEL_VERSION,
+        ball_pin_restitution=float(pins.ball_pin_restitution),
+        ball_pin_friction=float(pins.ball_pin_friction),
+        pin_pin_restitution=float(pins.pin_pin_restitution),
+        pin_pin_friction=float(pins.pin_pin_friction),
+        pin_deck_restitution=float(pins.pin_deck_restitution),
+        pin_deck_friction=float(pins.pin_deck_friction),
+        pin_kickback_restitution=float(pins.pin_kickback_restitution),
+        pin_kickback_friction=float(pins.pin_kickback_friction),
+        timestep_s=float(pins.timestep_s),
+        contact_timeconst_s=float(pins.contact_timeconst_s),
+        max_time_s=float(pins.max_time_s),
+        record_dt_s=float(pins.record_dt_s),
+        seed=pins.seed,
+        standing=tuple(pins.standing),
+        hand=pins.hand,
     )
 
 
