@@ -4,7 +4,13 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import (
+    Field,
+    SerializationInfo,
+    SerializerFunctionWrapHandler,
+    model_serializer,
+    model_validator,
+)
 
 from ._base import PositiveFloat, SpecModel, fmt, spec_error
 from .limits import MAX_G_MPS2, MAX_SAMPLES_PER_RUN, MAX_SPEED_MPS, MAX_TIME_S
@@ -72,6 +78,17 @@ class Options(SpecModel):
             "defaults, or its parameters; false: the run ends at the pins."
         ),
     )
+
+    @model_serializer(mode="wrap")
+    def _without_pins_off(
+        self, handler: SerializerFunctionWrapHandler, info: SerializationInfo
+    ) -> dict[str, object]:
+        """The options as stored, without ``pins`` when it is off: a scene without pin action
+        dumps (and so hashes, in a session's ID) as it did before the field existed."""
+        data: dict[str, object] = handler(self)
+        if self.pins is False:
+            data.pop("pins", None)
+        return data
 
     @property
     def pin_options(self) -> PinOptions | None:
