@@ -284,15 +284,22 @@ class Shot:
     # --- one release ---------------------------------------------------------------------
 
     def physical_scene(self, delivery: Delivery) -> Scene:
-        """The physical scene of ``delivery`` with this shot's ball, lane and options."""
+        """The physical scene of ``delivery`` with this shot's ball, lane and options (pin
+        action, when asked for with ``hand`` left at auto, names the leave for the bowler's
+        hand)."""
         s = self.scene
+        options = s.options
+        pins = options.pin_options
+        if pins is not None and pins.hand == "auto":
+            hand = s.delivery.handedness
+            options = options.model_copy(update={"pins": pins.model_copy(update={"hand": hand})})
         return Scene(
             name=s.name,
             description=s.description,
             ball=self.ball(delivery),
             lane=self.lane,
             delivery=delivery,
-            options=s.options,
+            options=options,
         )
 
     def ball(self, delivery: Delivery) -> Ball:

@@ -70,8 +70,36 @@ def simulate(
     """
     from bowlrec.spec import Scene
 
-    files = requested_files(out=out, mcap=mcap, rrd=rrd, plot=plot)
     parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
+    run_parsed_scene(
+        parsed,
+        archive=archive,
+        no_archive=no_archive,
+        ball=ball,
+        as_json=as_json,
+        files=requested_files(out=out, mcap=mcap, rrd=rrd, plot=plot),
+        connect=connect,
+        spawn=spawn,
+        quiet=quiet,
+    )
+
+
+def run_parsed_scene(
+    parsed: ParsedScene,
+    *,
+    archive: Path | None,
+    no_archive: bool,
+    ball: str | None,
+    as_json: bool,
+    files: Any,
+    connect: str | None,
+    spawn: bool,
+    quiet: bool,
+) -> None:
+    """Simulate a parsed scene (with the library ball ``ball`` in place of its own), store it
+    unless ``no_archive``, write ``files``, stream it, and print its summary (with its pins
+    when the scene asks for pin action) or its JSON: ``bowlrec simulate`` and ``bowlrec
+    pins``."""
     store = None if no_archive else open_archive(archive)
     if ball is not None:
         with archive_errors():
@@ -85,19 +113,20 @@ def simulate(
             typer.echo(
                 "note: recording every step (options.record = 'steps') for the outputs", err=True
             )
+    status = "simulating (first run compiles kernels)"
+    if scene_obj.options.pins is not False:
+        status = "simulating the lane and the pins (first run compiles kernels)"
     with archive_errors():
         if store is not None:
             from bowlrec.api import simulate_into
 
             result = with_status(
-                "simulating (first run compiles kernels)",
-                quiet,
-                lambda: simulate_into(store, scene_obj, ball_ref=ball_ref),
+                status, quiet, lambda: simulate_into(store, scene_obj, ball_ref=ball_ref)
             )
             traj, run_id, added = result.trajectory, result.run_id, result.added
         else:
             traj = with_status(
-                "simulating (first run compiles kernels)",
+                status,
                 quiet,
                 _solve_unarchived,
                 scene_obj,
@@ -120,11 +149,15 @@ def simulate(
         )
         if bowler is not None:
             payload["bowler"] = bowler
+        if traj.pins is not None:
+            payload["pins"] = traj.pins.to_dict()
         typer.echo(json.dumps(payload))
         return
     _print_summary(scene_obj.name, traj, run_id, added, store)
     if bowler is not None:
         _print_bowler(bowler)
+    if traj.pins is not None:
+        _print_pins(traj.pins)
     for line in lines:
         typer.echo(line)
 
@@ -166,12 +199,34 @@ def _print_bowler(report: dict[str, Any]) -> None:
 
 def _solve_unarchived(scene: Any, needs_samples: bool) -> Any:
 
+    from bowlrec.api import with_pins
     from bowlrec.core.solver import run_plan
 
     plan = scene.resolve()
     if not needs_samples:
         plan = replace(plan, record_mode=RECORD_SUMMARY)  # nothing will read the samples
-    return run_plan(plan)
+    return with_pins(plan, run_plan(plan))
+
+
+def _print_pins(pins: Any) -> None:
+    from rich.table import Table
+
+    from bowlrec.pins.diagram import deck_diagram
+
+    table = Table(title="at the pins", show_header=False)
+    table.add_row("leave", f"{pins.leave} ({pins.pinfall} down, {pins.hand}-hander's names)")
+    table.add_row("deck", deck_diagram(pins.standing, pins.set_pins))
+    table.add_row("ball touched", "-".join(str(p) for p in pins.touched) or "no pin")
+    if pins.exit_board is not None:
+        table.add_row(
+            "ball off the deck",
+            f"board {pins.exit_board:.1f} (bowler's count), deflected "
+            f"{pins.deflection_boards:+.1f} boards",
+        )
+    if pins.action is not None:
+        state = "at rest" if pins.action.at_rest else "stopped at max_time_s"
+        table.add_row("pin action", f"{pins.action.time_s:.2f} s ({state}), {pins.action.engine}")
+    print_table(table)
 
 
 def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:

@@ -67,8 +67,6 @@ STANDING_TILT_DEG = 15.0
 DOWN_TILT_DEG = 45.0
 #: a body whose origin is this far below the deck's surface has left the deck (m)
 _BELOW_DECK_M = 0.02
-#: a pin lying on the deck has its centre of gravity about this high (m): its belly's radius
-_LYING_CG_M = 0.0605
 #: where a body that fell into the pit is parked (m below the deck)
 _PARKED_Z_M = -1000.0
 
@@ -123,14 +121,16 @@ class BallEntry:
 class PinAction:
     """What the pins did (lane frame with the lane's surface at z = 0, SI).
 
-    set_pins: the pins set before the ball; standing: those standing at the end; touched: the
-    pins the ball touched, in the order of first touch; t_s (n,) the sample times since the
-    hand-off; pin_position_m (n, k, 3) and pin_quaternion_wxyz (n, k, 4): each set pin's base
-    centre and orientation (pin frame -> lane frame; the pin's axis is the frame's z) in the
-    order of ``set_pins``; ball_position_m (n, 3) and ball_quaternion_wxyz (n, 4): the ball's
-    geometric centre and orientation; exit_y_m: where the ball's centre crossed the deck's end
-    (None if it did not); time_s: simulated time; at_rest: whether everything came to rest
-    before ``max_time_s``; n_steps: engine steps; wall_time_s; engine: MuJoCo's version.
+        set_pins: the pins set before the ball; standing: those standing at the end; touched: the
+        pins the ball touched, in the order of first touch; t_s (n,) the sample times since the
+        hand-off; pin_position_m (n, k, 3) and pin_quaternion_wxyz (n, k, 4): each set pin's base
+        centre and orientation (pin frame -> lane frame; the pin's axis is the frame's z) in the
+        order of ``set_pins``; ball_position_m (n, 3) and ball_quaternion_wxyz (n, 4): the ball's
+        geometric centre and orientation; energy_J (n,): the kinetic and gravitational potential
+    energy of the bodies in play (J; the lane's surface is the zero of height; a body that leaves
+    for the pit takes its energy with it); exit_y_m: where the ball's centre crossed the deck's end
+        (None if it did not); time_s: simulated time; at_rest: whether everything came to rest
+        before ``max_time_s``; n_steps: engine steps; wall_time_s; engine: MuJoCo's version.
     """
 
     set_pins: tuple[int, ...]
@@ -141,6 +141,7 @@ class PinAction:
     pin_quaternion_wxyz: NDArray[np.float64]
     ball_position_m: NDArray[np.float64]
     ball_quaternion_wxyz: NDArray[np.float64]
+    energy_J: NDArray[np.float64]
     exit_y_m: float | None
     time_s: float
     at_rest: bool
@@ -200,10 +201,17 @@ def tipping_energy_j(mass_kg: float, cg_height_m: float, gravity_mps2: float = 9
 
 
 def _mechanical_energy(
-    model: object, data: object, body: int, vel: NDArray[np.float64], gravity_mps2: float
+    model: object,
+    data: object,
+    body: int,
+    vel: NDArray[np.float64],
+    gravity_mps2: float,
+    lying_m: float = 0.0605,
 ) -> float:
-    """A loose body's kinetic energy plus its potential energy above lying flat on the deck
-    (J); ``vel``: its (angular, linear) velocity at the centre of mass, lane frame."""
+    """A body's kinetic energy plus its potential energy with its centre of mass above
+    ``lying_m`` (J; by default the height of a pin lying on the deck, so that a pin lying
+    there holds no potential energy, floored at 0); ``vel``: its (angular, linear) velocity at
+    the centre of mass, lane frame."""
     import mujoco
 
     assert isinstance(model, mujoco.MjModel) and isinstance(data, mujoco.MjData)
@@ -213,8 +221,8 @@ def _mechanical_energy(
     kinetic = 0.5 * mass * float(vel[3:] @ vel[3:]) + 0.5 * float(
         model.body_inertia[body] @ (w_inertial * w_inertial)
     )
-    lift = max(0.0, float(data.xipos[body][2]) - _LYING_CG_M)
-    return kinetic + mass * gravity_mps2 * lift
+    lift = float(data.xipos[body][2]) - lying_m
+    return kinetic + mass * gravity_mps2 * (max(0.0, lift) if lying_m > 0.0 else lift)
 
 
 def _retire_pit(model: object, data: object, bodies: NDArray[np.int_], end_x: float) -> None:
@@ -294,6 +302,7 @@ def simulate_pins(
     end_x = deck.end_x_m
     bodies = np.array([ball_id, *pin_ids])
     times: list[float] = []
+    energies: list[float] = []
     positions: list[NDArray[np.float64]] = []
     quats: list[NDArray[np.float64]] = []
     touched: list[int] = []
@@ -302,8 +311,19 @@ def simulate_pins(
     steps = 0
     prev_ball = data.xpos[ball_id].copy()
 
+    def in_play_energy() -> float:
+        vel = np.zeros(6)
+        total = 0.0
+        for b in bodies:
+            if data.xpos[b][2] < _PARKED_Z_M / 2:
+                continue
+            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, int(b), vel, 0)
+            total += _mechanical_energy(model, data, int(b), vel, gravity_mps2, lying_m=0.0)
+        return total
+
     def sample() -> None:
         times.append(float(data.time))
+        energies.append(in_play_energy())
         positions.append(data.xpos[bodies].copy())
         quats.append(data.xquat[bodies].copy())
 
@@ -397,6 +417,7 @@ def simulate_pins(
         pin_quaternion_wxyz=quat[:, 1:, :],
         ball_position_m=pos[:, 0, :],
         ball_quaternion_wxyz=quat[:, 0, :],
+        energy_J=np.array(energies),
         exit_y_m=exit_y,
         time_s=float(data.time),
         at_rest=quiet >= REST_SAMPLES,
