@@ -60,7 +60,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAILED_OUTCOMES",
+    "KERNEL_COLUMNS",
     "METRIC_COLUMNS",
+    "PIN_COLUMNS",
     "ChunkResult",
     "ChunkTable",
     "ChunkTask",
@@ -72,7 +74,12 @@ FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
 #: recorded samples a worker holds before it seals them as a segment (about 130 bytes each)
 SEAL_SAMPLES = 1_000_000
 #: summary metrics of every table row (units in the names)
-METRIC_COLUMNS = ("outcome", *FLOAT_METRICS, *INT_METRICS)
+#: the kernel's metrics (every run has them)
+KERNEL_COLUMNS = ("outcome", *FLOAT_METRICS, *INT_METRICS)
+#: the pins' metrics, for runs with pin action (``options.pins``): pins down (-1: no pin
+#: action) and the leave in bowlers' names (None: no pin action)
+PIN_COLUMNS = ("pinfall", "leave")
+METRIC_COLUMNS = (*KERNEL_COLUMNS, *PIN_COLUMNS)
 #: event kind name -> the kernels' code
 _EVENT_CODES = {name: float(code) for code, name in EVENT_KINDS.items()}
 
@@ -112,6 +119,8 @@ class ChunkTable:
         metrics: dict[str, np.ndarray] = {"outcome": np.full(n, None, dtype=object)}
         metrics.update({k: np.full(n, np.nan) for k in FLOAT_METRICS})
         metrics.update({k: np.zeros(n, dtype=np.int64) for k in INT_METRICS})
+        metrics["pinfall"] = np.full(n, -1, dtype=np.int64)
+        metrics["leave"] = np.full(n, None, dtype=object)
         return cls(
             index=index,
             params=params,
@@ -126,8 +135,10 @@ class ChunkTable:
         """Row ``i``'s metrics from a mapping (None: no value)."""
         for k in METRIC_COLUMNS:
             v = values.get(k)
-            if k == "outcome":
+            if k in ("outcome", "leave"):
                 self.metrics[k][i] = v
+            elif k == "pinfall":
+                self.metrics[k][i] = -1 if v is None else int(v)
             elif k in INT_METRICS:
                 self.metrics[k][i] = 0 if v is None else int(v)
             else:
@@ -363,7 +374,7 @@ def _set_kernel_metrics(
 ) -> np.ndarray:
     """Rows ``rows`` take the kernel's metrics and status; returns the mask of rows that
     succeeded (not a failed outcome)."""
-    for k in METRIC_COLUMNS:
+    for k in KERNEL_COLUMNS:
         table.metrics[k][rows] = cols[k]
     table.has_metrics[rows] = True
     failed = np.isin(cols["outcome"], list(FAILED_OUTCOMES))
@@ -441,7 +452,7 @@ def _store_fast(
         },
         created_at_ns=time.time_ns(),
         scene_json=[chunk.scene_json[i] for i in rows.tolist()],
-        summary={name: cols[name][k] for name in METRIC_COLUMNS},
+        summary={name: cols[name][k] for name in KERNEL_COLUMNS},
         messages=_messages(cols, k.tolist(), packed),
         events=events,
         n_events=n_events,
@@ -511,7 +522,7 @@ def _run_general(
             first.setdefault(p.run_id, i)
     todo = list(first.values())
     store = _Store(archive, task.target, result, ctx.job.samples)
-    summary_only = [i for i in todo if _summary_only(prepared[i].plan)]
+    summary_only = [i for i in todo if _summary_only(prepared[i].plan) and not _pins(prepared[i])]
     recorded = [i for i in todo if i not in set(summary_only)]
     if summary_only:
         _general_summary(ctx, task, prepared, summary_only, table, store, result)
@@ -523,15 +534,23 @@ def _run_general(
     return result
 
 
-def _settle_row(table: ChunkTable, i: int, summary: Summary) -> bool:
-    """Row ``i`` takes a simulated run's metrics and status; True when the run is to be stored
-    (not a failed outcome)."""
-    table.set_metrics(i, summary.__dict__)
+def _settle_row(table: ChunkTable, i: int, summary: Summary, pins: Any = None) -> bool:
+    """Row ``i`` takes a simulated run's metrics (and its pins' for a run with pin action) and
+    status; True when the run is to be stored (not a failed outcome)."""
+    values = dict(summary.__dict__)
+    if pins is not None:
+        values.update(pinfall=pins.pinfall, leave=pins.leave)
+    table.set_metrics(i, values)
     if summary.outcome in FAILED_OUTCOMES:
         table.status[i], table.error[i] = "failed", f"{summary.outcome}: {summary.message}"
         return False
     table.status[i] = "ok"
     return True
+
+
+def _pins(prep: PreparedRun) -> bool:
+    """True when the run asks for pin action (it runs on its own, through the pin engine)."""
+    return prep.plan is not None and prep.plan.pins is not None
 
 
 def _summary_only(plan: Plan | None) -> bool:
@@ -611,13 +630,14 @@ def _general_recorded(
     store: _Store,
     result: ChunkResult,
 ) -> None:
+    from bowlrec.api import with_pins
     from bowlrec.core.arguments import use_closed_form
     from bowlrec.core.solver import run_plan
 
     assert prep.plan is not None
     start = time.perf_counter()
     try:
-        traj = run_plan(prep.plan)
+        traj = with_pins(prep.plan, run_plan(prep.plan))
     except Exception as err:  # a failing scene is a row, never a crashed batch
         table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
         return
@@ -625,7 +645,7 @@ def _general_recorded(
     result.simulated += 1
     result.simulate_s += wall
     summary = traj.summary
-    if not _settle_row(table, i, summary) or task.target is None:
+    if not _settle_row(table, i, summary, traj.pins) or task.target is None:
         return
     solver = "closed_form" if use_closed_form(prep.plan) else "integrator"
     store.add(_record(ctx, prep, summary, [], wall, solver, traj))

@@ -308,9 +308,12 @@ def job_context(
         for v in axis_values(axis)
     )
     summary = job.record == "summary"
+    pins = bool((base.data.get("options") or {}).get("pins")) or any(
+        p == "options.pins" or p.startswith("options.pins.") for p in paths
+    )
     fast = (
         tuple(dict.fromkeys(paths))
-        if summary and numeric and FastSweep.applies(base.bowler, paths, has_lists)
+        if summary and numeric and not pins and FastSweep.applies(base.bowler, paths, has_lists)
         else None
     )
     data = copy.deepcopy(base.data)

@@ -170,7 +170,8 @@ def table_rows(result: BatchResult) -> list[dict[str, Any]]:
             row.update(run_id=table.run_id[i], status=table.status[i], error=table.error[i])
             for k in METRIC_COLUMNS:
                 v = metrics[k][i] if has else None
-                row[k] = None if isinstance(v, float) and math.isnan(v) else v
+                absent = (isinstance(v, float) and math.isnan(v)) or (k == "pinfall" and v == -1)
+                row[k] = None if absent else v
             out.append(row)
     return out
 
@@ -202,6 +203,9 @@ def _arrow_chunk(table: ChunkTable, params: Sequence[str], types: dict[str, str]
         arrays.append(pa.array(v, type=pa.float64(), mask=missing | ~np.isfinite(v)))
     for k in INT_METRICS:
         arrays.append(pa.array(table.metrics[k], type=pa.int64(), mask=missing))
+    pinfall = table.metrics["pinfall"]
+    arrays.append(pa.array(pinfall, type=pa.int64(), mask=missing | (pinfall < 0)))
+    arrays.append(pa.array(table.metrics["leave"], type=pa.string(), mask=missing))
     return pa.table(arrays, names=table_columns(params))
 
 
@@ -263,6 +267,14 @@ def to_numpy(result: BatchResult) -> np.ndarray:
     fields.append(("outcome", outcome.dtype if n else "U1"))
     fields += [(k, np.float64) for k in FLOAT_METRICS]
     fields += [(k, np.int64) for k in INT_METRICS]
+    leave = np.array(
+        [
+            "" if (v is None or not h) else v
+            for t in result.tables
+            for v, h in zip(t.metrics["leave"], t.has_metrics, strict=True)
+        ]
+    )
+    fields += [("pinfall", np.int64), ("leave", leave.dtype if n else "U1")]
     out = np.zeros(n, dtype=fields)
     if not n:
         return out
@@ -278,6 +290,10 @@ def to_numpy(result: BatchResult) -> np.ndarray:
     for k in INT_METRICS:
         v = np.concatenate([t.metrics[k] for t in result.tables])
         out[k] = np.where(has, v, -1)
+    out["pinfall"] = np.where(
+        has, np.concatenate([t.metrics["pinfall"] for t in result.tables]), -1
+    )
+    out["leave"] = leave
     return out
 
 
