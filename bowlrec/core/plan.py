@@ -68,6 +68,8 @@ class PinPlan:
     record_dt_s: float = 0.005
     seed: int | None = None
     standing: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 7, 8, 9, 10)
+    #: standing pins off their spots: (pin, dx, dy), the base centre's offset from the spot (m)
+    moved: tuple[tuple[int, float, float], ...] = ()
     #: whose names the leave gets: "right", "left" or "auto" (a ball moving left at the pins
     #: is a right-hander's)
     hand: str = "auto"

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from bowlrec.core.plan import Plan
     from bowlrec.core.trajectory import Trajectory
 
-__all__ = ["PinOutcome", "pin_outcome"]
+__all__ = ["PinOutcome", "pin_outcome", "standing_offsets_m"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +88,25 @@ class PinOutcome:
         return f"{self.leave} ({self.pinfall} down; the ball touched {touched}{where})"
 
 
+def standing_offsets_m(
+    outcome: PinOutcome, lane_length_m: float, lane_width_m: float
+) -> dict[int, tuple[float, float]]:
+    """Where the standing pins came to rest: pin -> (dx, dy), its base centre's offset from its
+    spot's centre (m), as ``options.pins.moved`` takes it for the next ball (a pinsetter sets
+    standing pins back where it picked them up). Empty when the ball reached no pin."""
+    action = outcome.action
+    if action is None:
+        return {}
+    deck = Deck(lane_length_m, lane_width_m)
+    out = {}
+    for k, pin in enumerate(action.set_pins):
+        if pin in outcome.standing:
+            x, y = (float(v) for v in action.pin_position_m[-1, k, :2])
+            sx, sy = deck.spot_m(pin)
+            out[pin] = (x - sx, y - sy)
+    return out
+
+
 def _board(y_m: float, lane_width_m: float, hand: str) -> float:
     board_w = lane_width_m / BOARDS
     d = y_m if hand == "right" else lane_width_m - y_m
@@ -111,7 +130,11 @@ def pin_outcome(plan: Plan, trajectory: Trajectory) -> PinOutcome:
     if hand == "auto":
         hand = "right" if entry.velocity_mps[1] >= 0.0 else "left"
     deck = Deck(plan.lane_length_m, plan.lane_width_m)
-    pinset = set_pins(deck, pins.standing, seed=pins.seed)
+    at = {}
+    for pin, dx, dy in pins.moved:
+        x, y = deck.spot_m(pin)
+        at[pin] = (x + dx, y + dy)
+    pinset = set_pins(deck, pins.standing, seed=pins.seed, at=at)
     action = simulate_pins(entry, pins, deck, pinset, gravity_mps2=plan.g_mps2)
     exit_board = deflection = None
     if action.exit_y_m is not None:

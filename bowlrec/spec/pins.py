@@ -73,6 +73,14 @@ class PinOptions(SpecModel):
         description="The pins set before the ball (pin numbers 1-10, as a right-hander sees "
         "them: 2 left of the head pin).",
     )
+    moved: dict[int, tuple[float, float]] = Field(
+        default_factory=dict,
+        description=(
+            "Standing pins off their spots: pin number -> (dx, dy), its base centre's offset "
+            "from its spot's centre (m, lane frame: +x toward the pit, +y left), each within "
+            "0.3 m; the pins a previous ball moved, as a pinsetter sets them back."
+        ),
+    )
     hand: Literal["auto", "right", "left"] = Field(
         default="auto",
         description=(
@@ -121,8 +129,25 @@ class PinOptions(SpecModel):
             raise spec_error(f"pins {value} name a pin twice")
         return sorted(value)
 
+    @field_validator("moved")
+    @classmethod
+    def _moved(cls, value: dict[int, tuple[float, float]]) -> dict[int, tuple[float, float]]:
+        for pin, (dx, dy) in value.items():
+            if not 1 <= pin <= 10:
+                raise spec_error(f"pin {pin} is not a pin number: pins are 1-10")
+            if not (abs(dx) <= 0.3 and abs(dy) <= 0.3):
+                raise spec_error(
+                    f"pin {pin} moved ({fmt(dx)}, {fmt(dy)}) m: each offset must be within 0.3 m"
+                )
+        return dict(sorted(value.items()))
+
     @model_validator(mode="after")
     def _timeconst(self) -> PinOptions:
+        stray = sorted(set(self.moved) - set(self.standing))
+        if stray:
+            raise spec_error(
+                f"moved names pin {stray[0]}, which is not in standing {self.standing}"
+            )
         if self.contact_timeconst_s < 2.0 * self.timestep_s:
             raise spec_error(
                 f"contact_timeconst_s = {fmt(self.contact_timeconst_s)} s must be at least "

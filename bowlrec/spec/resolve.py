@@ -116,6 +116,7 @@ def pin_plan(pins: PinOptions | None) -> PinPlan | None:
         record_dt_s=float(pins.record_dt_s),
         seed=pins.seed,
         standing=tuple(pins.standing),
+        moved=tuple((pin, float(dx), float(dy)) for pin, (dx, dy) in pins.moved.items()),
         hand=pins.hand,
     )
 
