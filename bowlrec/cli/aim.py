@@ -180,11 +180,22 @@ def variance(
     preset: Annotated[
         str, typer.Option("--preset", "-p", help="Release scatter: robot, pro or league.")
     ] = "league",
-    n: Annotated[int, typer.Option("--n", min=1, max=100_000, help="Repeats.")] = 2000,
+    n: Annotated[
+        int | None,
+        typer.Option("--n", min=1, max=100_000, help="Repeats (default: 2000; 200 with --pins)."),
+    ] = None,
     seed: Annotated[int, typer.Option("--seed", help="Random seed (reproducible).")] = 0,
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Write the figure (.png or .svg).")
     ] = None,
+    pins: Annotated[
+        bool,
+        typer.Option(
+            "--pins",
+            help="Also throw every repeat through the pins: the shot's strike percentage, "
+            "carry and leaves (needs 'bowlrec[pins]'; about 0.1-0.5 s per repeat per core).",
+        ),
+    ] = False,
     pocket_board: PocketBoardOption = None,
     board_window: BoardWindowOption = None,
     angle: AngleOption = None,
@@ -193,9 +204,12 @@ def variance(
     quiet: QuietOption = False,
 ) -> None:
     """Repeat a shot with a bowler's release scatter and report how often it enters the
-    pocket (entry board and angle distributions, share in the window)."""
+    pocket (entry board and angle distributions, share in the window) and, with --pins, how
+    often it strikes."""
     from bowlrec.bowling.variance import PRESETS, release_scatter
 
+    if n is None:
+        n = 200 if pins else 2000
     if preset not in PRESETS:
         fail(f"--preset {preset!r}: choose one of {', '.join(PRESETS)}")
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
@@ -210,6 +224,16 @@ def variance(
 
         write_scatter_figure(result, plot, title=f"{bowler.name}, {preset}")
     doc = {"preset": preset, **result.to_dict()}
+    carry = None
+    if pins:
+        from bowlrec.bowling.shot_carry import shot_carry
+
+        carry = with_status(
+            f"{n} repeats through the pins",
+            quiet,
+            lambda: shot_carry(bowler, PRESETS[preset], n, seed, pocket),
+        )
+        doc["pins"] = carry.to_dict()
     if as_json:
         typer.echo(json.dumps(doc))
         return
@@ -227,6 +251,13 @@ def variance(
             f"entry board {board['mean']:.2f} ± {board['std']:.2f} (5-95 %: {board['p05']:.1f}"
             f"-{board['p95']:.1f}); entry angle {ang['mean']:.2f} ± {ang['std']:.2f} deg "
             f"(5-95 %: {ang['p05']:.2f}-{ang['p95']:.2f})"
+        )
+    if carry is not None:
+        hits = "no repeat" if carry.carry is None else f"{100 * carry.carry:.0f} %"
+        leaves = ", ".join(f"{name} {k}" for name, k in carry.leave_counts()[:6])
+        typer.echo(
+            f"strikes: {100 * carry.strike_share:.1f} % (± {100 * carry.strike_share_se:.1f}); "
+            f"carry of pocket hits: {hits}; leaves: {leaves} ({carry.seconds:.1f} s)"
         )
     if plot is not None:
         typer.echo(f"figure: {plot}")
