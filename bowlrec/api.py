@@ -42,16 +42,10 @@ def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
         return trajectory
     import dataclasses
 
-    from .errors import MissingExtraError
-
-    try:
-        import mujoco  # noqa: F401
-    except ImportError as err:
-        raise MissingExtraError(
-            "pin action (options.pins) needs MuJoCo: pip install 'bowlrec[pins]'"
-        ) from err
+    from .pins.engine import require_mujoco
     from .pins.outcome import pin_outcome
 
+    require_mujoco()
     return dataclasses.replace(trajectory, pins=pin_outcome(plan, trajectory))
 
 

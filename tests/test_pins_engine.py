@@ -399,3 +399,23 @@ def test_bad_pin_options_are_one_line_naming_the_field() -> None:
             parse_scene_input({**base, "options": {"pins": pins}})
         assert words in str(err.value)
         assert "\n" not in str(err.value)
+
+
+def test_without_the_extra_pin_action_names_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    import builtins
+
+    import bowlrec.api as api
+    from bowlrec.errors import MissingExtraError
+
+    real_import = builtins.__import__
+
+    def no_mujoco(name: str, *args: object, **kw: object) -> object:
+        if name == "mujoco" or name.startswith("mujoco."):
+            raise ImportError("No module named 'mujoco'")
+        return real_import(name, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(builtins, "__import__", no_mujoco)
+    scene = json.loads((ROOT / "examples/paper/case16.json").read_text())
+    scene["options"]["pins"] = True
+    with pytest.raises(MissingExtraError, match=r"pip install 'bowlrec\[pins\]'"):
+        api.simulate(scene)

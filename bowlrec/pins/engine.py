@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -56,6 +56,7 @@ __all__ = [
     "BallEntry",
     "PinAction",
     "engine_version",
+    "require_mujoco",
     "simulate_pins",
 ]
 
@@ -160,6 +161,19 @@ class PinAction:
         return len(self.set_pins) - len(self.standing)
 
 
+def require_mujoco() -> Any:
+    """The ``mujoco`` module; MissingExtraError naming the extra when it is not installed."""
+    try:
+        import mujoco
+    except ImportError as err:
+        from bowlrec.errors import MissingExtraError
+
+        raise MissingExtraError(
+            "pin action (options.pins) needs MuJoCo: pip install 'bowlrec[pins]'"
+        ) from err
+    return mujoco
+
+
 def engine_version() -> str:
     """MuJoCo's version string (``mujoco 3.x.y``)."""
     import mujoco
@@ -249,8 +263,9 @@ def simulate_pins(
     *,
     gravity_mps2: float = 9.81,
 ) -> PinAction:
-    """Pin action of ``entry`` on the pins ``pinset`` of ``deck`` with the model ``pins``."""
-    import mujoco
+    """Pin action of ``entry`` on the pins ``pinset`` of ``deck`` with the model ``pins``
+    (MissingExtraError without the ``pins`` extra)."""
+    mujoco = require_mujoco()
 
     start = time.perf_counter()
     k2 = np.asarray(entry.inertia_per_mass_m2, dtype=np.float64)
