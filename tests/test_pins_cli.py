@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+import bowlrec.pins  # noqa: E402,F401  (MUJOCO_GL=disable before MuJoCo loads)
+
 pytest.importorskip("mujoco")
 
 from bowlrec.cli import app  # noqa: E402

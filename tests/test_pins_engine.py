@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import bowlrec.pins  # noqa: E402,F401  (MUJOCO_GL=disable before MuJoCo loads)
+
 pytest.importorskip("mujoco")
 
 from bowlrec.pins.contact import dampratio_for, measured_restitution  # noqa: E402
