@@ -272,4 +272,3 @@ def pin_index_columns(
                 pinfall[i] = int(falls[a])
                 leave[i] = _decoded(names[a])
     return {"pinfall": np.array(pinfall, dtype=object), "leave": np.array(leave, dtype=object)}
-

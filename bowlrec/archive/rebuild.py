@@ -286,9 +286,7 @@ def upgrade_index(d: ArchiveDir) -> bool:
                         if p is not None
                     ],
                 )
-            con.execute(
-                "UPDATE meta SET value = ? WHERE key = 'index_format'", (INDEX_FORMAT,)
-            )
+            con.execute("UPDATE meta SET value = ? WHERE key = 'index_format'", (INDEX_FORMAT,))
     except sqlite3.DatabaseError:
         return False
     finally:
