@@ -28,6 +28,7 @@ __all__ = [
     "INDEX_COLUMNS",
     "INDEX_FORMAT",
     "NUMERIC_COLUMNS",
+    "PIN_INDEXES",
     "RUN_TABLE_COLUMNS",
     "Filter",
     "IndexQueryError",
@@ -41,7 +42,7 @@ __all__ = [
 ]
 
 #: the index schema's version (meta key ``index_format``); another value means "rebuild"
-INDEX_FORMAT = "2"
+INDEX_FORMAT = "3"
 
 #: stored per run (table ``runs``): column -> SQLite type. Compact on purpose (a million rows):
 #: the segment and the ball spec's SHA-256 are integer keys into ``segments`` and
@@ -76,6 +77,8 @@ RUN_TABLE_COLUMNS: dict[str, str] = {
     "record": "TEXT",
     "solver": "TEXT",
     "wall_time_s": "REAL",
+    "pinfall": "INTEGER",
+    "leave": "TEXT",
 }
 
 #: a listed run's column (``runs list --json``, ``GET /runs``; the order of the output) -> the
@@ -143,6 +146,15 @@ def listed_row(row: sqlite3.Row) -> dict[str, Any]:
     return out
 
 
+#: partial indexes of the pins' columns: they hold runs with pins only, so runs without cost
+#: nothing
+PIN_INDEXES = (
+    "CREATE INDEX IF NOT EXISTS runs_leave ON runs (leave, created_ns) WHERE leave IS NOT NULL",
+    "CREATE INDEX IF NOT EXISTS runs_pinfall ON runs (pinfall, created_ns) "
+    "WHERE pinfall IS NOT NULL",
+)
+_PIN_INDEX_SQL = ";\n".join(PIN_INDEXES)
+
 _SCHEMA = f"""
 CREATE TABLE IF NOT EXISTS runs (
     seq INTEGER PRIMARY KEY,
@@ -150,6 +162,7 @@ CREATE TABLE IF NOT EXISTS runs (
 );
 CREATE INDEX IF NOT EXISTS runs_created ON runs (created_ns);
 CREATE INDEX IF NOT EXISTS runs_outcome ON runs (outcome, created_ns);
+{_PIN_INDEX_SQL};
 CREATE TABLE IF NOT EXISTS segments (
     seg INTEGER PRIMARY KEY,
     segment_id TEXT NOT NULL UNIQUE,

@@ -38,6 +38,7 @@ from .rebuild import (
     record_damage,
     record_tombstones,
     register_segment_files,
+    upgrade_index,
 )
 from .tombstones import Tombstone, write_tombstone
 
@@ -82,6 +83,9 @@ def _open_writer(d: ArchiveDir) -> sqlite3.Connection:
     try:
         return d.index_writer()
     except IndexUnreadableError as err:
+        if upgrade_index(d):
+            log.info("%s; upgraded in place (the pins' columns added)", err)
+            return d.index_writer()
         counts = rebuild_index(d)
         bad = counts["segments_unreadable"]
         log.warning(

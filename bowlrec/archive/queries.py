@@ -39,8 +39,14 @@ def run_filters(
     outcome: str | None = None,
     name: str | None = None,
     where: Sequence[Filter | str] = (),
+    *,
+    leave: str | None = None,
+    pinfall: int | None = None,
+    strikes: bool = False,
 ) -> tuple[list[Filter], list[tuple[str, list[Any]]]]:
-    """The filters and extra SQL clauses of :func:`list_runs`' arguments."""
+    """The filters and extra SQL clauses of :func:`list_runs`' arguments: ``leave`` the
+    leave's name as stored ("strike", "10", ...), ``pinfall`` pins down, ``strikes`` strikes
+    only (runs without pins have neither and match none of them)."""
     if outcome is not None and outcome not in OUTCOMES.values():
         raise InputError(
             f"outcome {outcome!r} is not an outcome; the outcomes are "
@@ -49,7 +55,17 @@ def run_filters(
         )
     filters = [w if isinstance(w, Filter) else Filter.parse(w) for w in where]
     clauses = [] if ball is None else [_ball_clause(d, ball)]
-    for column, value in (("pattern", pattern), ("outcome", outcome), ("name", name)):
+    if strikes:
+        if leave is not None and leave != "strike":
+            raise InputError(f"strikes only and leave {leave!r} exclude each other")
+        leave = "strike"
+    for column, value in (
+        ("pattern", pattern),
+        ("outcome", outcome),
+        ("name", name),
+        ("leave", leave),
+        ("pinfall", pinfall),
+    ):
         if value is not None:
             filters.append(Filter(column, "=", value))
     return filters, clauses

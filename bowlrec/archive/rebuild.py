@@ -18,7 +18,14 @@ from bowlrec.errors import IndexUnreadableError, SegmentError
 from . import faults
 from .ball_files import ball_file_row
 from .directory import ArchiveDir
-from .index import create_schema, new_index, transaction
+from .index import (
+    INDEX_FORMAT,
+    PIN_INDEXES,
+    RUN_TABLE_COLUMNS,
+    create_schema,
+    new_index,
+    transaction,
+)
 from .quarantine import UNKNOWN_RUN, quarantine_reports
 from .tombstones import Tombstone, read_tombstones
 
@@ -31,6 +38,7 @@ __all__ = [
     "rebuild_index",
     "record_tombstones",
     "register_segment_files",
+    "upgrade_index",
 ]
 
 log = logging.getLogger(__package__)  # "bowlrec.archive"
@@ -221,6 +229,69 @@ def rebuild_index(d: ArchiveDir) -> dict[str, Any]:
         tmp.unlink(missing_ok=True)
         raise
     return counts
+
+
+#: the index format :func:`upgrade_index` brings to the current one in place
+_UPGRADABLE_FORMAT = "2"
+
+
+def upgrade_index(d: ArchiveDir) -> bool:
+    """Bring an index of format 2 (before pins) to the current format in place, in one
+    transaction (hold the writer lock): the ``pinfall`` and ``leave`` columns and their
+    indexes added, and filled from the segments that hold pins (format 2.2). A reader sees the
+    old index or the new one. False (nothing changed) when the file is not a format-2 index:
+    the caller rebuilds it."""
+    from .segment_file import SegmentFile
+
+    assert d.locked, "upgrade_index() needs the writer lock"
+    if not d.index_path.exists():
+        return False
+    try:
+        con = sqlite3.connect(
+            f"file:{d.index_path}?mode=rw", uri=True, timeout=60.0, isolation_level=None
+        )
+    except sqlite3.OperationalError:
+        return False
+    try:
+        con.execute("PRAGMA journal_mode=DELETE")
+        con.execute("PRAGMA synchronous=FULL")
+        row = con.execute("SELECT value FROM meta WHERE key = 'index_format'").fetchone()
+        if row is None or row[0] != _UPGRADABLE_FORMAT:
+            return False
+        with transaction(con, write=True):
+            have = {r[1] for r in con.execute("PRAGMA table_info(runs)")}
+            for name in ("pinfall", "leave"):
+                if name not in have:
+                    con.execute(f"ALTER TABLE runs ADD COLUMN {name} {RUN_TABLE_COLUMNS[name]}")
+            for sql in PIN_INDEXES:
+                con.execute(sql)
+            segments = con.execute("SELECT seg, path FROM segments").fetchall()
+            for seg, rel in segments:
+                try:
+                    with SegmentFile(d.root / rel) as f:
+                        pins = f.pin_index_columns()
+                        ids = f.run_ids() if pins is not None else []
+                except (SegmentError, OSError, KeyError):
+                    continue  # its runs keep no pins; `runs repair` deals with the file
+                if pins is None:
+                    continue
+                con.executemany(
+                    # by run ID (its unique index; not a scan per run), this segment's copy
+                    "UPDATE runs SET pinfall = ?, leave = ? WHERE run_id = ? AND seg = ?",
+                    [
+                        (p, leave, rid, seg)
+                        for rid, p, leave in zip(
+                            ids, pins["pinfall"].tolist(), pins["leave"].tolist(), strict=True
+                        )
+                        if p is not None
+                    ],
+                )
+            con.execute("UPDATE meta SET value = ? WHERE key = 'index_format'", (INDEX_FORMAT,))
+    except sqlite3.DatabaseError:
+        return False
+    finally:
+        con.close()
+    return True
 
 
 def memory_index(d: ArchiveDir) -> sqlite3.Connection:

@@ -85,6 +85,8 @@ def index_rows(con: sqlite3.Connection, seg: int, cols: dict[str, Any]) -> list[
     values["wall_time_s"] = cols["wall_time_s"].tolist()
     for name in SUMMARY_INT_COLUMNS:
         values[name] = cols[name].tolist()
+    for name in ("pinfall", "leave"):  # format 2.2; None for a run without pins
+        values[name] = cols[name].tolist() if name in cols else [None] * n
     return list(zip(*(values[k] for k in RUN_TABLE_COLUMNS), strict=True))
 
 

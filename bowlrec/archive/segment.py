@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 
+from .pin_records import pin_index_columns
 from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
@@ -77,6 +78,15 @@ __all__ = [
 ]
 
 
+def _layout(datasets: dict[str, NDArray[Any]]) -> dict[str, tuple[str, tuple[int, ...]]]:
+    """A record group's datasets as a segment needs them alike across runs: each one's dtype
+    and trailing shape (byte strings of any width: the segment stores the widest)."""
+    return {
+        k: ("S" if v.dtype.kind == "S" else v.dtype.str, tuple(v.shape[1:]))
+        for k, v in datasets.items()
+    }
+
+
 def record_groups(records: Sequence[RunRecord]) -> dict[str, tuple[dict[str, Any], Any]]:
     """The per-run record groups of ``records``: group -> (its datasets concatenated over the
     runs with ``offsets``, its row matrix for the digests), groups in sorted name order. Every
@@ -87,9 +97,9 @@ def record_groups(records: Sequence[RunRecord]) -> dict[str, tuple[dict[str, Any
     for group in names:
         having = [r for r in records if group in r.records]
         first = having[0].records[group]
-        layout = {k: (v.dtype, v.shape[1:]) for k, v in first.items()}
+        layout = _layout(first)
         for r in having[1:]:
-            got = {k: (v.dtype, v.shape[1:]) for k, v in r.records[group].items()}
+            got = _layout(r.records[group])
             if got != layout:
                 raise ValueError(
                     f"run {r.run_id}: record group {group!r} has datasets {got}, the segment's "
@@ -161,8 +171,8 @@ class SegmentBuilder:
             other = next((r for r in self.records if group in r.records), None)
             if other is None:
                 continue
-            layout = {k: (v.dtype, v.shape[1:]) for k, v in other.records[group].items()}
-            got = {k: (v.dtype, v.shape[1:]) for k, v in datasets.items()}
+            layout = _layout(other.records[group])
+            got = _layout(datasets)
             if got != layout:
                 raise ValueError(
                     f"run {record.run_id}: record group {group!r} has datasets {got}, the "
@@ -278,6 +288,7 @@ def seal_columns(
     write_segment(path, segment_id, columns, provenance, durable=durable, samples=samples)
     index = {k: v for group in ("runs", "summary") for k, v in columns[group].items()}
     index["n_samples"] = np.diff(columns["trajectory"]["offsets"])
+    index.update(pin_index_columns(len(columns["runs"]["run_id"]), columns.get("pin_outcome")))
     run_ids = tuple(v.decode() for v in columns["runs"]["run_id"].tolist())
     info = {
         **provenance,

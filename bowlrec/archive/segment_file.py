@@ -28,6 +28,7 @@ from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
+from .pin_records import PIN_MEANINGS, pin_engine, pin_index_columns, pin_outcome_of
 from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
@@ -81,6 +82,8 @@ _VARIABLE = ("scene_json", "scene_json_offsets", "message", "message_offsets")
 
 
 def _units(group: str, name: str) -> tuple[str, str | None]:
+    if f"{group}/{name}" in PIN_MEANINGS:
+        return PIN_MEANINGS[f"{group}/{name}"]
     if name in _MEANINGS and not (group == "trajectory" and name == "phase"):
         return "1", _MEANINGS[name]
     if name == "created_at_ns":
@@ -309,7 +312,17 @@ class SegmentFile:
                     continue
                 out[name] = g[name][()]
         out["n_samples"] = np.diff(self._f["trajectory/offsets"][()])
+        out.update(self.pin_index_columns() or pin_index_columns(self.n_runs, None))
         return out
+
+    def pin_index_columns(self) -> dict[str, NDArray[Any]] | None:
+        """The index's ``pinfall`` and ``leave`` of every run (format 2.2), or None when no
+        run of the segment has pins."""
+        pins = self._f.get("pin_outcome")
+        if not isinstance(pins, h5py.Group) or "offsets" not in pins:
+            return None
+        group = {k: pins[k][()] for k in ("offsets", "pinfall", "leave")}
+        return pin_index_columns(self.n_runs, group)
 
     # -- one run -------------------------------------------------------------------------------
 
@@ -450,8 +463,18 @@ class SegmentFile:
         if not samples:
             samples = _empty_samples()
         arrays: dict[str, Any] = dict(samples)
-        traj = Trajectory(**arrays, events=evs, summary=summary, torques_Nm=dict(torques))
+        own = {g: d for g, d in records.items() if _has_rows(d)}
+        traj = Trajectory(
+            **arrays,
+            events=evs,
+            summary=summary,
+            torques_Nm=dict(torques),
+            pins=pin_outcome_of(own),
+        )
         attrs = {k: v for k, v in self.provenance.items() if k not in ("n_runs",)}
+        engine = pin_engine(own)
+        if engine is not None:
+            attrs["pin_engine_version"] = engine
         attrs.update(
             {
                 "ball_ref": _text(r["ball_ref"][0]),
@@ -463,7 +486,6 @@ class SegmentFile:
         columns: dict[str, Any] = {k: _text(r[k][0]) for k in RUN_STRING_COLUMNS}
         columns.update({k: float(r[k][0]) for k in RUN_FLOAT_COLUMNS})
         columns["created_at_ns"] = int(r["created_at_ns"][0])
-        own = {g: d for g, d in records.items() if _has_rows(d)}
         return StoredRecord(run_id, self.segment_id, row, scene.decode(), traj, attrs, columns, own)
 
     # -- every run -----------------------------------------------------------------------------

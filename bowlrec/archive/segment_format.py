@@ -21,12 +21,16 @@ from numpy.typing import NDArray
 
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
 
+from .pin_records import PIN_GROUPS, PINS_FORMAT_VERSION
+
 if TYPE_CHECKING:
     from bowlrec.sinks.common import RunData
 
 __all__ = [
     "EVENT_FIELDS",
     "FIXED_GROUPS",
+    "PIN_GROUPS",
+    "PINS_FORMAT_VERSION",
     "RECORDS_FORMAT_VERSION",
     "RUN_FLOAT_COLUMNS",
     "RUN_STRING_COLUMNS",
@@ -119,7 +123,8 @@ class RunRecord:
     events: list[tuple[str, float, str, float, float, float]] = field(default_factory=list)
     #: per-run record groups (format 2.1): group name -> {dataset name: array}, the arrays of a
     #: group with equal first dimensions (the run's rows of that group), e.g. the oil grid after
-    #: a session's shot (``bowlrec.session.records``)
+    #: a session's shot (``bowlrec.session.records``) or the run's pins (format 2.2,
+    #: :mod:`.pin_records`; :meth:`from_run` adds them)
     records: dict[str, dict[str, NDArray[Any]]] = field(default_factory=dict)
 
     @classmethod
@@ -167,8 +172,19 @@ class RunRecord:
             else {},
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
-            records=check_records(run.run_id, records or {}),
+            records=check_records(run.run_id, {**_pin_records(run), **(records or {})}),
         )
+
+
+def _pin_records(run: RunData) -> dict[str, dict[str, NDArray[Any]]]:
+    """The record groups of the run's pins (format 2.2; none without pin action): every
+    sample of their motion when the run records samples, else where they came to rest."""
+    pins = run.trajectory.pins
+    if pins is None:
+        return {}
+    from .pin_records import pin_groups
+
+    return pin_groups(pins, samples=run.scene.options.record != "summary")
 
 
 def check_records(
@@ -266,7 +282,10 @@ def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
 
 
 def format_version_of(columns: dict[str, Any]) -> str:
-    """The segment format version of a segment's datasets: 2.1 when they hold per-run record
-    groups, else 2.0 (a segment without them is exactly a 2.0 segment)."""
-    extra = any(g not in FIXED_GROUPS and not g.startswith("_") for g in columns)
+    """The segment format version of a segment's datasets: 2.2 when they hold a run's pins
+    (:data:`PIN_GROUPS`), 2.1 when they hold other per-run record groups, else 2.0 (a segment
+    without them is exactly a 2.0 segment)."""
+    extra = {g for g in columns if g not in FIXED_GROUPS and not g.startswith("_")}
+    if extra & set(PIN_GROUPS):
+        return PINS_FORMAT_VERSION
     return RECORDS_FORMAT_VERSION if extra else SEGMENT_FORMAT_VERSION

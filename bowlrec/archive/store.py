@@ -181,11 +181,26 @@ class Archive:
         order_by: str = "created_at",
         limit: int | None = None,
         offset: int = 0,
+        leave: str | None = None,
+        pinfall: int | None = None,
+        strikes: bool = False,
     ) -> list[dict[str, Any]]:
         """Index rows (dicts keyed by :data:`~.index.INDEX_COLUMNS`), filtered: ``ball`` a
         library name or ``name@version``, ``where`` conditions such as ``"hook_m>=0.1"`` (any
-        index column, ops <= >= != = < >); ``offset`` rows of the ordered result skipped."""
-        found = queries.run_filters(self.directory, ball, pattern, outcome, name, where)
+        index column, ops <= >= != = < >); ``offset`` rows of the ordered result skipped;
+        ``leave``, ``pinfall``, ``strikes``: runs with pin action whose leave (as named),
+        pins down or strike match."""
+        found = queries.run_filters(
+            self.directory,
+            ball,
+            pattern,
+            outcome,
+            name,
+            where,
+            leave=leave,
+            pinfall=pinfall,
+            strikes=strikes,
+        )
         return queries.list_runs(
             self.directory, *found, order_by=order_by, limit=limit, offset=offset
         )
@@ -199,9 +214,22 @@ class Archive:
         name: str | None = None,
         where: Sequence[Filter | str] = (),
         cap: int | None = None,
+        leave: str | None = None,
+        pinfall: int | None = None,
+        strikes: bool = False,
     ) -> int:
         """How many runs :meth:`list_runs` lists with these filters, counting at most ``cap``."""
-        found = queries.run_filters(self.directory, ball, pattern, outcome, name, where)
+        found = queries.run_filters(
+            self.directory,
+            ball,
+            pattern,
+            outcome,
+            name,
+            where,
+            leave=leave,
+            pinfall=pinfall,
+            strikes=strikes,
+        )
         return queries.count_runs(self.directory, *found, cap=cap)
 
     def damaged(self) -> list[dict[str, Any]]:

@@ -55,6 +55,22 @@ LIST_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("hook (cm)", "hook_m", 100.0, ".2f"),
     ("pocket (deg)", "pocket_deg", 1.0, ".2f"),
 )
+#: the pins' columns, shown after ``outcome`` when any listed run has pin action
+PIN_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
+    ("leave", "leave", 1.0, ""),
+    ("pinfall", "pinfall", 1.0, ""),
+)
+
+
+def list_columns(rows: list[dict[str, Any]]) -> tuple[tuple[str, str, float, str], ...]:
+    """The ``runs list`` table's columns for ``rows``: the pins' columns only when a run has
+    pin action (``options.pins``), so an archive without pins lists as before."""
+    if not any(row.get("pinfall") is not None for row in rows):
+        return LIST_COLUMNS
+    at = [c for _h, c, _s, _f in LIST_COLUMNS].index("outcome") + 1
+    return LIST_COLUMNS[:at] + PIN_COLUMNS + LIST_COLUMNS[at:]
+
+
 #: how many runs ``runs list`` shows unless --limit says otherwise
 DEFAULT_LIST_LIMIT = 20
 
@@ -72,12 +88,28 @@ def list_runs(
     pattern: Annotated[str | None, typer.Option(help="Lane pattern (friction kind).")] = None,
     outcome: Annotated[str | None, typer.Option(help="pins, gutter, stopped, ...")] = None,
     name: Annotated[str | None, typer.Option(help="Scene name.")] = None,
+    leave: Annotated[
+        str | None,
+        typer.Option(
+            help="Runs with pin action that left this leave, as listed: strike, 10, 7-10."
+        ),
+    ] = None,
+    pinfall: Annotated[
+        int | None,
+        typer.Option(
+            min=0, max=10, help="Runs with pin action with this many pins down (ranges: -w)."
+        ),
+    ] = None,
+    strikes: Annotated[
+        bool, typer.Option("--strikes", help="Only strikes (runs with pin action).")
+    ] = False,
     where: Annotated[
         list[str] | None,
         typer.Option(
             "--where",
             "-w",
-            help="Condition on an index column, repeatable: 'hook_m>=0.1', 'speed_mps<8'.",
+            help="Condition on an index column, repeatable: 'hook_m>=0.1', 'speed_mps<8', "
+            "'pinfall<=8'.",
         ),
     ] = None,
     order_by: Annotated[
@@ -121,6 +153,9 @@ def list_runs(
             pattern=pattern,
             outcome=outcome,
             name=name,
+            leave=leave,
+            pinfall=pinfall,
+            strikes=strikes,
             where=where or (),
             order_by=order_by,
             limit=None if limit == 0 else limit + 1,  # one more tells whether more match
@@ -140,11 +175,12 @@ def list_runs(
     table = Table(
         title=title, caption="more runs match: --limit N or --limit 0 for all" if more else None
     )
-    for header, column, _scale, _fmt in LIST_COLUMNS:
-        left = column in ("name", "ball", "pattern", "outcome", "created_at", "run_id")
+    columns = list_columns(rows)
+    for header, column, _scale, _fmt in columns:
+        left = column in ("name", "ball", "pattern", "outcome", "leave", "created_at", "run_id")
         table.add_column(header, justify="left" if left else "right")
     for row in rows:
-        table.add_row(*(_cell(row, c, scale, fmt) for _h, c, scale, fmt in LIST_COLUMNS))
+        table.add_row(*(_cell(row, c, scale, fmt) for _h, c, scale, fmt in columns))
     print_table(table)
 
 
@@ -164,12 +200,14 @@ def show(
     from bowlrec.provenance import bowler_layer_warning
 
     warning = bowler_layer_warning(provenance)
+    pins = stored.trajectory.pins
     if as_json:
         doc = {
             "index": row,
             "provenance": provenance,
             "warnings": [] if warning is None else [warning],
             "summary": stored.trajectory.summary.to_dict(),
+            "pins": None if pins is None else pins.to_dict(),
             "events": events,
             "scene": json.loads(stored.attrs["scene_json"]),
         }
@@ -184,6 +222,8 @@ def show(
         "events", "\n".join(f"{e['kind']} t={e['t_s']:.4f}s x={e['x_m']:.3f}m" for e in events)
     )
     table.add_row("samples", str(stored.trajectory.n_samples))
+    if pins is not None:
+        table.add_row("pins", pins.line())
     if warning is not None:
         table.add_row("warning", warning)
     print_table(table)
