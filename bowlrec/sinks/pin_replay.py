@@ -236,7 +236,8 @@ def pins_json(run: RunData) -> dict[str, Any] | None:
     """The pins of ``run`` for the web app's pin-deck view (JSON-safe); None without pin action.
 
     Keys: the result (``leave``, ``line``, ``pinfall``, ``standing``, ``set_pins``,
-    ``touched``, ``hand``, ``exit_board``, ``deflection_boards``, ``time_s``, ``at_rest``),
+    ``touched``, ``hand``, ``exit_board``, ``exit_y_m`` (where the ball's centre crossed the
+    deck's end, lane y), ``deflection_boards``, ``time_s``, ``at_rest``),
     ``handoff_t_s``, ``t_s`` (the samples, s since the hand-off), ``deck`` (``x0_m``, ``x1_m``,
     ``width_m``, ``head_pin_x_m``, ``spots`` pin -> [x, y], ``pin_radius_m`` the belly's,
     ``pin_height_m``, ``ball_radius_m``, ``boards``), ``pins``: one entry per set pin with
@@ -254,6 +255,7 @@ def pins_json(run: RunData) -> dict[str, Any] | None:
     outline = deck_outline(run)
     result: dict[str, Any] = outcome.to_dict()
     result["line"] = outcome.line()
+    result["exit_y_m"] = None if outcome.action is None else outcome.action.exit_y_m
     deck = {
         "x0_m": outline.x0_m,
         "x1_m": outline.x1_m,
