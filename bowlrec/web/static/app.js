@@ -227,7 +227,7 @@ function drawDeck(section, data) {
   const svg = document.getElementById("deck-svg");
   const gutter = 0.235;
   const yMin = -gutter, yMax = deck.width_m + gutter;
-  const xMin = deck.x0_m - 0.25, xMax = deck.x1_m + 0.3;
+  const xMin = deck.x0_m - 0.25, xMax = deck.x1_m + 0.5;
   const X = (y) => yMax - y;
   const Y = (x) => xMax - x;
   svg.setAttribute("viewBox", "0 0 " + (yMax - yMin).toFixed(4) + " " + (xMax - xMin).toFixed(4));
