@@ -20,6 +20,22 @@ Topics of a single-run file (a batch file prefixes each with ``/<run key>``):
   per sample: the full physics state, including per-term torques when they were recorded.
 - ``/events`` JSON (schema ``bowlrec.Event``), one per event at its time.
 
+With pin action (``options.pins``; poses from :mod:`bowlrec.sinks.pin_replay`), ``/tf`` holds the
+kernel's samples before the hand-off, then the pin engine's (the ball through the deck), and:
+
+- ``/pins/tf`` foxglove.FrameTransforms, one per engine sample at hand-off time + the engine's
+  time: for each set pin ``n`` a transform from ``lane`` to the frame ``pin<n>`` (translation =
+  the pin's base centre, m; rotation = pin -> lane, the pin's axis is the frame's z). A pin the
+  engine retired into the pit keeps its last pose in play.
+- ``/pins/scene`` foxglove.SceneUpdate: at the hand-off, the entity ``pins/deck`` (the deck's
+  outline, the ten spots and the ball's path through the deck, frame ``lane``) and one entity
+  ``pins/<n>`` per set pin (the revolved profile as a triangle list with the pin's number, in
+  its frame ``pin<n>``, ``frame_locked`` so ``/pins/tf`` moves it); when pin action ends, the
+  entity ``pins/leave`` (the leave as text above the deck).
+- ``/pins/result`` JSON (schema ``bowlrec.PinResult``), one message when pin action ends: the
+  leave, pinfall, standing, touched pins, exit board and deflection.
+- metadata ``pins``: the same result, each field as JSON text.
+
 Records: metadata ``scene`` (scene_json, run_id, name, bowlrec_version, physics_version),
 metadata ``summary`` (every :class:`~bowlrec.core.trajectory.Summary` field as JSON text, plus a
 one-line ``text``) and the attachment ``scene.json``.
@@ -63,6 +79,7 @@ from foxglove.messages import (
     SpherePrimitive,
     TextPrimitive,
     Timestamp,
+    TriangleListPrimitive,
     Vector3,
 )
 from numpy.typing import NDArray
@@ -73,9 +90,11 @@ from bowlrec.core.trajectory import Event, Trajectory
 from bowlrec.versions import PHYSICS_VERSION, __version__
 
 from .common import Array, RunData, friction_cells, markings_body, series_columns, summary_text
+from .pin_replay import PinReplay, deck_outline, pin_mesh, pin_replay
 
 __all__ = [
     "EVENT_SCHEMA",
+    "PIN_RESULT_SCHEMA",
     "event_message",
     "frame_transforms",
     "read_mcap_positions",
@@ -170,6 +189,60 @@ EVENT_SCHEMA: dict[str, Any] = _object(
         },
     },
 )
+
+
+def _integers(description: str) -> dict[str, Any]:
+    return {
+        "type": "array",
+        "items": {"type": "integer", "minimum": 1, "maximum": 10},
+        "description": description,
+    }
+
+
+def _optional_number(description: str) -> dict[str, Any]:
+    return {"type": ["number", "null"], "description": description}
+
+
+#: JSON schema of the ``/pins/result`` message
+PIN_RESULT_SCHEMA: dict[str, Any] = _object(
+    "bowlrec.PinResult",
+    "The pins after the ball (boards from the bowler's own gutter).",
+    {
+        "t_s": _number("when pin action ended, simulated time since release [s]"),
+        "leave": {"type": "string", "description": "the standing pins in bowlers' names"},
+        "pinfall": {"type": "integer", "description": "how many of the set pins are down"},
+        "standing": _integers("the pins standing at the end"),
+        "set_pins": _integers("the pins set before the ball"),
+        "touched": _integers("the pins the ball touched, in the order of first touch"),
+        "hand": {"type": "string", "enum": ["right", "left"], "description": "whose names"},
+        "exit_board": _optional_number("where the ball's centre left the deck [board]"),
+        "deflection_boards": _optional_number(
+            "how far the pins pushed the ball off its line, toward the bowler's gutter [board]"
+        ),
+        "handoff_t_s": _number("when the pin engine took the ball, since release [s]"),
+        "at_rest": {"type": "boolean", "description": "everything came to rest in time"},
+    },
+)
+
+
+def pin_result_message(replay: PinReplay) -> bytes:
+    """The ``/pins/result`` message (compact JSON, UTF-8) of a run's pins."""
+    o = replay.outcome
+    return _json_bytes(
+        {
+            "t_s": replay.rest_t_s,
+            "leave": o.leave,
+            "pinfall": o.pinfall,
+            "standing": list(o.standing),
+            "set_pins": list(o.set_pins),
+            "touched": list(o.touched),
+            "hand": o.hand,
+            "exit_board": o.exit_board,
+            "deflection_boards": o.deflection_boards,
+            "handoff_t_s": replay.handoff_t_s,
+            "at_rest": bool(o.action.at_rest) if o.action is not None else False,
+        }
+    )
 
 
 def state_schema(traj: Trajectory) -> dict[str, Any]:
@@ -325,18 +398,30 @@ def _mu_color(mu: float, alpha: float = 0.55) -> Color:
 
 def frame_transforms(traj: Trajectory, parent: str, child: str) -> Iterator[FrameTransform]:
     """One FrameTransform per sample: ``child`` (the ball) in ``parent`` (the lane)."""
+    for _, transform in _transforms(traj.t_s, traj.position_m, traj.quaternion_wxyz, parent, child):
+        yield transform
+
+
+def _transforms(
+    t_s: Array, position: Array, quaternion_wxyz: Array, parent: str, child: str
+) -> Iterator[tuple[int, FrameTransform]]:
+    """(log time in ns, FrameTransform) per row: ``child`` at ``position`` (n, 3) turned by the
+    quaternions (n, 4) in ``parent``, stamped ``t_s`` (n,)."""
     for ns, p, q in zip(
-        _log_time_ns(traj.t_s).tolist(),
-        traj.position_m.tolist(),
-        traj.quaternion_wxyz.tolist(),
+        _log_time_ns(t_s).tolist(),
+        np.asarray(position).tolist(),
+        np.asarray(quaternion_wxyz).tolist(),
         strict=True,
     ):
-        yield FrameTransform(
-            timestamp=_timestamp(ns),
-            parent_frame_id=parent,
-            child_frame_id=child,
-            translation=Vector3(x=p[0], y=p[1], z=p[2]),
-            rotation=Quaternion(x=q[1], y=q[2], z=q[3], w=q[0]),
+        yield (
+            ns,
+            FrameTransform(
+                timestamp=_timestamp(ns),
+                parent_frame_id=parent,
+                child_frame_id=child,
+                translation=Vector3(x=p[0], y=p[1], z=p[2]),
+                rotation=Quaternion(x=q[1], y=q[2], z=q[3], w=q[0]),
+            ),
         )
 
 
@@ -356,6 +441,7 @@ class _Names:
 
 
 def _lane_entity(run: RunData, names: _Names, stamp: Timestamp) -> SceneEntity:
+    """The lane slab, the foul line and (without pin action) a marker for the head pin."""
     plan, r = run.plan, run.plan.radius_m
     length, width = plan.lane_length_m, plan.lane_width_m
     slab = CubePrimitive(
@@ -390,7 +476,7 @@ def _lane_entity(run: RunData, names: _Names, stamp: Timestamp) -> SceneEntity:
             KeyValuePair(key="surface_z_m", value=repr(-r)),
         ],
         cubes=[slab],
-        cylinders=[pin],
+        cylinders=[] if pin_replay(run) is not None else [pin],
         lines=[foul_line],
     )
 
@@ -568,27 +654,174 @@ def _check_run(run: RunData) -> None:
 
 
 def _run_messages(run: RunData, names: _Names, ctx: foxglove.Context) -> Iterator[_Message]:
-    """Every message of one run in log-time order (events before a sample at the same time)."""
+    """Every message of one run in log-time order (at equal times: the scene, events, the
+    ball's transform, its state, then the pins' messages)."""
     traj = run.trajectory
     tf = FrameTransformChannel(names.topic("/tf"), context=ctx)
     scene = SceneUpdateChannel(names.topic("/scene"), context=ctx)
     state = foxglove.Channel(names.topic("/ball/state"), schema=state_schema(traj), context=ctx)
     events = foxglove.Channel(names.topic("/events"), schema=EVENT_SCHEMA, context=ctx)
+    pins = pin_replay(run)
 
     sample_ns = _log_time_ns(traj.t_s).tolist()
     pending = [(int(_log_time_ns(e.t_s)), event_message(e)) for e in traj.events]
     pending.sort(key=lambda item: item[0])
-    yield _Message(sample_ns[0], scene, _scene_update(run, names, sample_ns[0]))
-    transforms = frame_transforms(traj, names.frame("lane"), names.frame("ball"))
-    j = 0
-    for ns, transform, body in zip(sample_ns, transforms, state_messages(traj), strict=True):
-        while j < len(pending) and pending[j][0] <= ns:
-            yield _Message(pending[j][0], events, pending[j][1])
-            j += 1
-        yield _Message(ns, tf, transform)
-        yield _Message(ns, state, body)
-    for ns, body in pending[j:]:
-        yield _Message(ns, events, body)
+    lane, ball = names.frame("lane"), names.frame("ball")
+    track = (traj.t_s, traj.position_m, traj.quaternion_wxyz)
+    if pins is not None:
+        track = pins.ball_track(run)
+    transforms = _transforms(*track, lane, ball)
+    streams: list[Iterable[_Message]] = [
+        [_Message(sample_ns[0], scene, _scene_update(run, names, sample_ns[0]))],
+        (_Message(ns, events, body) for ns, body in pending),
+        (_Message(ns, tf, t) for ns, t in transforms),
+        (_Message(ns, state, b) for ns, b in zip(sample_ns, state_messages(traj), strict=True)),
+    ]
+    if pins is not None:
+        streams.append(_pin_messages(run, pins, names, ctx))
+    yield from heapq.merge(*streams, key=lambda m: m.log_time)
+
+
+def _pin_messages(
+    run: RunData, pins: PinReplay, names: _Names, ctx: foxglove.Context
+) -> Iterator[_Message]:
+    """The pins' messages in log-time order: the scene at the hand-off, a FrameTransforms per
+    engine sample, then the leave and the result when pin action ends."""
+    tf = FrameTransformsChannel(names.topic("/pins/tf"), context=ctx)
+    scene = SceneUpdateChannel(names.topic("/pins/scene"), context=ctx)
+    result = foxglove.Channel(names.topic("/pins/result"), schema=PIN_RESULT_SCHEMA, context=ctx)
+    lane = names.frame("lane")
+    frames = [names.frame(f"pin{p}") for p in pins.pins]
+    sample_ns = _log_time_ns(pins.t_s).tolist()
+    yield _Message(sample_ns[0], scene, _pins_scene(run, pins, names, _timestamp(sample_ns[0])))
+    positions = pins.pin_position_m.tolist()
+    quaternions = pins.pin_quaternion_wxyz.tolist()
+    for i, ns in enumerate(sample_ns):
+        stamp = _timestamp(ns)
+        yield _Message(
+            ns,
+            tf,
+            FrameTransforms(
+                transforms=[
+                    FrameTransform(
+                        timestamp=stamp,
+                        parent_frame_id=lane,
+                        child_frame_id=frame,
+                        translation=Vector3(x=p[0], y=p[1], z=p[2]),
+                        rotation=Quaternion(x=q[1], y=q[2], z=q[3], w=q[0]),
+                    )
+                    for frame, p, q in zip(frames, positions[i], quaternions[i], strict=True)
+                ]
+            ),
+        )
+    rest_ns = max(int(_log_time_ns(pins.rest_t_s)), sample_ns[-1])
+    yield _Message(rest_ns, scene, _leave_update(run, pins, names, _timestamp(rest_ns)))
+    yield _Message(rest_ns, result, pin_result_message(pins))
+
+
+_DECK_COLOR = Color(r=0.25, g=0.25, b=0.25, a=1.0)
+_SPOT_COLOR = Color(r=0.45, g=0.45, b=0.45, a=1.0)
+_LEAVE_COLOR = Color(r=0.95, g=0.2, b=0.2, a=1.0)
+
+
+def _pins_scene(run: RunData, pins: PinReplay, names: _Names, stamp: Timestamp) -> SceneUpdate:
+    """The deck (outline, spots, the ball's path through it) and the pins' models."""
+    from bowlrec.pins.profile import HEIGHT_M
+
+    outline = deck_outline(run)
+    z = -run.plan.radius_m + TRACE_LIFT_M
+    loop = LinePrimitive(
+        type=LinePrimitiveLineType.LineStrip,
+        pose=_pose(0.0, 0.0, 0.0),
+        thickness=0.008,
+        points=[Point3(x=x, y=y, z=zz) for x, y, zz in outline.corners(z).tolist()],
+        color=_DECK_COLOR,
+    )
+    path = LinePrimitive(
+        type=LinePrimitiveLineType.LineStrip,
+        pose=_pose(0.0, 0.0, 0.0),
+        thickness=0.01,
+        points=[Point3(x=x, y=y, z=z) for x, y in pins.ball_position_m[:, :2].tolist()],
+        color=_BALL_COLOR,
+    )
+    spot_d = 0.0286  # a spot is 2 1/4 in across
+    spots = [
+        CylinderPrimitive(
+            pose=_pose(x, y, z),
+            size=_vec3(spot_d, spot_d, 0.001),
+            bottom_scale=1.0,
+            top_scale=1.0,
+            color=_SPOT_COLOR,
+        )
+        for _, (x, y) in sorted(outline.spots_m.items())
+    ]
+    deck = SceneEntity(
+        timestamp=stamp,
+        frame_id=names.frame("lane"),
+        id="pins/deck",
+        metadata=[
+            KeyValuePair(key="x0_m", value=repr(outline.x0_m)),
+            KeyValuePair(key="x1_m", value=repr(outline.x1_m)),
+            KeyValuePair(key="surface_z_m", value=repr(-run.plan.radius_m)),
+        ],
+        lines=[loop, path],
+        cylinders=spots,
+    )
+    verts, tris, _normals, colors = pin_mesh()
+    points = [Point3(x=x, y=y, z=zz) for x, y, zz in verts.tolist()]
+    vertex_colors = [Color(r=r, g=g, b=b, a=1.0) for r, g, b in colors.tolist()]
+    indices = tris.reshape(-1).tolist()
+    entities = [deck]
+    for p in pins.pins:
+        model = TriangleListPrimitive(
+            pose=_pose(0.0, 0.0, 0.0), points=points, colors=vertex_colors, indices=indices
+        )
+        label = TextPrimitive(
+            pose=_pose(0.0, 0.0, HEIGHT_M + 0.04),
+            billboard=True,
+            font_size=12.0,
+            scale_invariant=True,
+            color=_LEAVE_COLOR,
+            text=str(p),
+        )
+        entities.append(
+            SceneEntity(
+                timestamp=stamp,
+                frame_id=names.frame(f"pin{p}"),
+                id=f"pins/{p}",
+                frame_locked=True,
+                metadata=[KeyValuePair(key="pin", value=str(p))],
+                triangles=[model],
+                texts=[label],
+            )
+        )
+    return SceneUpdate(entities=entities)
+
+
+def _leave_update(run: RunData, pins: PinReplay, names: _Names, stamp: Timestamp) -> SceneUpdate:
+    """The leave as text above the middle of the deck."""
+    outline = deck_outline(run)
+    text = TextPrimitive(
+        pose=_pose(
+            0.5 * (outline.x0_m + outline.x1_m), 0.5 * outline.width_m, -run.plan.radius_m + 0.6
+        ),
+        billboard=True,
+        font_size=20.0,
+        scale_invariant=True,
+        color=_LEAVE_COLOR,
+        text=pins.outcome.line(),
+    )
+    return SceneUpdate(
+        entities=[
+            SceneEntity(
+                timestamp=stamp,
+                frame_id=names.frame("lane"),
+                id="pins/leave",
+                metadata=[KeyValuePair(key="leave", value=pins.outcome.leave)],
+                texts=[text],
+            )
+        ]
+    )
 
 
 def _write_records(writer: MCAPWriter, run: RunData, names: _Names) -> None:
@@ -610,6 +843,12 @@ def _write_records(writer: MCAPWriter, run: RunData, names: _Names) -> None:
     }
     summary["text"] = summary_text(run.trajectory)
     writer.write_metadata(names.record("summary"), summary)
+    if run.trajectory.pins is not None:
+        result = run.trajectory.pins.to_dict() | {"line": run.trajectory.pins.line()}
+        writer.write_metadata(
+            names.record("pins"),
+            {k: v if isinstance(v, str) else json.dumps(v) for k, v in result.items()},
+        )
     writer.attach(
         log_time=0,
         create_time=0,

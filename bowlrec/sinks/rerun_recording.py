@@ -14,15 +14,32 @@ Entity tree (see :func:`log_run`)::
     /world/lane/lines            LineStrips3D: foul line and pin-deck line (static)
     /world/path                  LineStrips3D: contact track on the lane, one strip per phase run
     /world/ball                  Transform3D per sample (translation + quaternion xyzw, body->lane)
-                                 + Ellipsoids3D wireframe sphere of radius R (static, body frame)
+                                 + Ellipsoids3D wireframe sphere of radius R (static, body frame);
+                                 with pins: the kernel's samples before the hand-off, then the
+                                 pin engine's (the ball through the deck)
     /world/ball/markings         Points3D on the surface: pin, CG side, mass bias (body frame)
     /world/ball/pin_axis         Arrows3D along the low-RG principal axis (body frame)
     /world/rotation_axis         Arrows3D per sample from the center along omega/|omega| (lane)
     /plots/<series>              Scalars per sample (speed, rev_rate, slip_speed, mu, ...)
     /plots/torque_magnitude/...  |term| per sample of every recorded Eq. (6)/(7) term (N m)
     /plots/torque_components/<term>  x, y, z of that term (N m, lane frame)
-    /events                      TextLog, one row per event at its time
+    /events                      TextLog, one row per event at its time; with pins also the
+                                 hand-off and the leave (at the time pin action ended)
     /summary, /scene             TextDocument (static): summary markdown, the scene as JSON
+
+With pin action (``options.pins``; :mod:`bowlrec.sinks.pin_replay`)::
+
+    /world/deck                  LineStrips3D: the deck's outline at the lane surface (static)
+    /world/deck/spots            Points3D: the ten spots, labelled 1..10 (static)
+    /world/deck/ball_path        LineStrips3D: the ball's path through the deck (static)
+    /world/pins/<n>              Mesh3D of the pin (the revolved profile; static, pin frame: base
+                                 centre at the origin, axis +z) moved by a Transform3D per engine
+                                 sample (base centre + quaternion xyzw, pin->lane); pins 1..10
+    /world/pins/<n>/label        Points3D labelled with the pin's number above its head (static)
+    /pins                        TextDocument (static): the leave, pinfall, touched pins, exit board
+
+The pins' samples are on the same ``sim_time`` timeline, at hand-off time + the engine's time;
+a pin the engine retired into the pit keeps its last pose in play.
 
 All per-sample data goes through ``send_columns``; rerun stores positions, quaternions and
 vectors as float32, so they read back to about 1e-6 relative precision.
@@ -49,6 +66,7 @@ from bowlrec.core.codes import PHASE_NAMES, ROLLING
 from bowlrec.errors import ViewerUnavailableError
 
 from .common import friction_cells, markings_body, quaternion_xyzw, series_columns, summary_text
+from .pin_replay import PinReplay, deck_outline, pin_mesh, pin_replay
 
 if TYPE_CHECKING:
     from bowlrec.core.trajectory import Trajectory
@@ -94,6 +112,10 @@ _BALL_RGBA: Rgba = (30, 45, 160, 255)
 _SLIDING_RGBA: Rgba = (230, 60, 50, 255)
 _ROLLING_RGBA: Rgba = (40, 170, 70, 255)
 _AXIS_RGBA: Rgba = (255, 150, 0, 255)
+_DECK_RGBA: Rgba = (60, 60, 60, 255)
+_SPOT_RGBA: Rgba = (120, 120, 120, 255)
+_DECK_PATH_RGBA: Rgba = (30, 45, 160, 255)
+_PIN_LABEL_RGBA: Rgba = (200, 20, 20, 255)
 _MARK_RGBA = {
     "pin": (220, 30, 30, 255),
     "cg": (250, 210, 0, 255),
@@ -156,13 +178,18 @@ def default_blueprint(run: RunData) -> rrb.Blueprint:
     axis) -- above the event log and the summary/scene documents. Right: tabs of time-series
     views (motion, contact, energy and phase, and torques when the run recorded them).
     """
+    close: rrb.Container | rrb.View = _ball_view(run)
+    pins_view = pin_replay(run) is not None
+    if pins_view:
+        close = rrb.Tabs(_deck_view(run), close, active_tab=0)
     left = rrb.Vertical(
-        rrb.Horizontal(_lane_view(run), _ball_view(run), column_shares=[3, 2]),
+        rrb.Horizontal(_lane_view(run), close, column_shares=[3, 2]),
         rrb.Horizontal(
             rrb.TextLogView(name="Events", origin="/events"),
             rrb.Tabs(
                 rrb.TextDocumentView(name="Summary", origin="/summary"),
                 rrb.TextDocumentView(name="Scene", origin="/scene"),
+                *([rrb.TextDocumentView(name="Pins", origin="/pins")] if pins_view else []),
             ),
         ),
         row_shares=[3, 1],
@@ -209,6 +236,18 @@ def _ball_view(run: RunData) -> rrb.Spatial3DView:
     )
 
 
+def _deck_view(run: RunData) -> rrb.Spatial3DView:
+    """The pin deck from 2.5 m in front of the head pin, 1.2 m up (a run with pins)."""
+    length, mid = float(run.plan.lane_length_m), 0.5 * float(run.plan.lane_width_m)
+    eye = rrb.EyeControls3D(
+        position=[length - 2.5, mid, 1.2],
+        look_target=[length + 0.45, mid, -float(run.plan.radius_m)],
+    )
+    return rrb.Spatial3DView(
+        name="Deck", origin="/world", eye_controls=eye, line_grid=rrb.LineGrid3D(visible=False)
+    )
+
+
 def _plot_column(name: str, entities: list[str]) -> rrb.Vertical:
     """A tab of stacked time-series views, one per ``/plots/<entity>``."""
     legend = {entity: label for entity, label in _PLOTS.values()}
@@ -227,14 +266,17 @@ def log_run(rec: rr.RecordingStream, run: RunData) -> None:
     traj = run.trajectory
     radius = float(run.plan.radius_m)
     times = _time_column(traj.t_s)
+    pins = pin_replay(run)
     rec.log("/world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
     _log_lane(rec, run, radius)
     _log_path(rec, traj, radius)
-    _log_ball(rec, run, radius, times)
-    _log_rotation_axis(rec, traj, radius, times)
+    _log_ball(rec, run, radius, times, pins)
+    _log_rotation_axis(rec, traj, radius, times, pins)
     _log_series(rec, traj, times)
     _log_torques(rec, traj, times)
     _log_events(rec, traj)
+    if pins is not None:
+        _log_pins(rec, run, pins, radius)
     _log_documents(rec, run)
 
 
@@ -463,8 +505,15 @@ def _log_path(rec: rr.RecordingStream, traj: Trajectory, radius: float) -> None:
     )
 
 
-def _log_ball(rec: rr.RecordingStream, run: RunData, radius: float, times: rr.TimeColumn) -> None:
-    """Wireframe sphere and body-frame markings (static), moved by per-sample transforms."""
+def _log_ball(
+    rec: rr.RecordingStream,
+    run: RunData,
+    radius: float,
+    times: rr.TimeColumn,
+    pins: PinReplay | None = None,
+) -> None:
+    """Wireframe sphere and body-frame markings (static), moved by per-sample transforms (with
+    pins: the kernel's samples before the hand-off, then the engine's through the deck)."""
     rec.log(
         "/world/ball",
         rr.Ellipsoids3D(
@@ -500,21 +549,38 @@ def _log_ball(rec: rr.RecordingStream, run: RunData, radius: float, times: rr.Ti
             static=True,
         )
     traj = run.trajectory
+    if pins is None:
+        position, quaternion = traj.position_m, traj.quaternion_wxyz
+    else:
+        t_s, position, quaternion = pins.ball_track(run)
+        times = _time_column(t_s)
     rec.send_columns(
         "/world/ball",
         indexes=[times],
         columns=rr.Transform3D.columns(
-            translation=np.asarray(traj.position_m, dtype=np.float64),
-            quaternion=quaternion_xyzw(traj.quaternion_wxyz),
+            translation=np.asarray(position, dtype=np.float64),
+            quaternion=quaternion_xyzw(quaternion),
         ),
     )
 
 
 def _log_rotation_axis(
-    rec: rr.RecordingStream, traj: Trajectory, radius: float, times: rr.TimeColumn
+    rec: rr.RecordingStream,
+    traj: Trajectory,
+    radius: float,
+    times: rr.TimeColumn,
+    pins: PinReplay | None = None,
 ) -> None:
-    """Arrow of length 2.5 R from the center along omega/|omega| (lane frame; zero if still)."""
+    """Arrow of length 2.5 R from the center along omega/|omega| (lane frame; zero if still).
+
+    With pins, only the kernel's samples before the hand-off; the arrow is cleared there (the
+    pin engine records no angular velocity)."""
     omega = np.asarray(traj.omega_radps, dtype=np.float64)
+    position = np.asarray(traj.position_m, dtype=np.float64)
+    if pins is not None:
+        cut = pins.lane_cut
+        omega, position = omega[:cut], position[:cut]
+        times = _time_column(np.asarray(traj.t_s, dtype=np.float64)[:cut])
     norm = np.linalg.norm(omega, axis=1, keepdims=True)
     unit = np.divide(omega, norm, out=np.zeros_like(omega), where=norm > 0.0)
     rec.log(
@@ -525,9 +591,117 @@ def _log_rotation_axis(
     rec.send_columns(
         "/world/rotation_axis",
         indexes=[times],
-        columns=rr.Arrows3D.columns(
-            origins=np.asarray(traj.position_m, dtype=np.float64), vectors=2.5 * radius * unit
+        columns=rr.Arrows3D.columns(origins=position, vectors=2.5 * radius * unit),
+    )
+    if pins is not None:
+        rec.send_columns(
+            "/world/rotation_axis",
+            indexes=[_time_column(np.array([pins.handoff_t_s]))],
+            columns=rr.Clear.columns(is_recursive=[False]),
+        )
+
+
+def _log_pins(rec: rr.RecordingStream, run: RunData, pins: PinReplay, radius: float) -> None:
+    """The deck, the spots, the ball's path through the deck, each pin's mesh and poses, the
+    hand-off and the leave on ``/events``."""
+    from bowlrec.pins.profile import HEIGHT_M
+
+    outline = deck_outline(run)
+    z = -radius + 0.5 * _CELL_THICKNESS_M
+    rec.log(
+        "/world/deck",
+        rr.LineStrips3D([outline.corners(z)], colors=[_DECK_RGBA], radii=0.004, labels=["deck"]),
+        static=True,
+    )
+    numbers = sorted(outline.spots_m)
+    rec.log(
+        "/world/deck/spots",
+        rr.Points3D(
+            [[*outline.spots_m[p], z] for p in numbers],
+            radii=0.0143,  # the spot, 2 1/4 in across
+            colors=[_SPOT_RGBA],
+            labels=[str(p) for p in numbers],
+            show_labels=False,
         ),
+        static=True,
+    )
+    track = pins.ball_position_m.copy()
+    track[:, 2] = z
+    rec.log(
+        "/world/deck/ball_path",
+        rr.LineStrips3D([track], colors=[_DECK_PATH_RGBA], radii=0.006, labels=["ball"]),
+        static=True,
+    )
+    verts, tris, normals, colors = pin_mesh()
+    mesh = rr.Mesh3D(
+        vertex_positions=verts,
+        triangle_indices=tris,
+        vertex_normals=normals,
+        vertex_colors=np.asarray(np.round(255 * colors), dtype=np.uint8),
+    )
+    times = _time_column(pins.t_s)
+    for k, pin in enumerate(pins.pins):
+        entity = f"/world/pins/{pin}"
+        rec.log(entity, mesh, static=True)
+        rec.log(
+            f"{entity}/label",
+            rr.Points3D(
+                [[0.0, 0.0, HEIGHT_M + 0.03]],
+                radii=0.003,
+                colors=[_PIN_LABEL_RGBA],
+                labels=[str(pin)],
+            ),
+            static=True,
+        )
+        rec.send_columns(
+            entity,
+            indexes=[times],
+            columns=rr.Transform3D.columns(
+                translation=pins.pin_position_m[:, k, :],
+                quaternion=quaternion_xyzw(pins.pin_quaternion_wxyz[:, k, :]),
+            ),
+        )
+    outcome = pins.outcome
+    rec.send_columns(
+        "/events",
+        indexes=[_time_column(np.array([pins.handoff_t_s, pins.rest_t_s]))],
+        columns=rr.TextLog.columns(
+            text=[
+                f"pins: the ball reached pin action at x = {pins.ball_position_m[0, 0]:.3f} m",
+                f"pins: {outcome.line()}",
+            ],
+            level=[rr.TextLogLevel.INFO, rr.TextLogLevel.INFO],
+        ),
+    )
+    rec.log(
+        "/pins",
+        rr.TextDocument(_pins_markdown(pins), media_type=rr.MediaType.MARKDOWN),
+        static=True,
+    )
+
+
+def _pins_markdown(pins: PinReplay) -> str:
+    """The pins' result as a markdown document (boards from the bowler's own gutter)."""
+    o = pins.outcome
+    standing = ", ".join(str(p) for p in o.standing) or "none"
+    touched = "-".join(str(p) for p in o.touched) or "none"
+    rows = [
+        ("leave", o.leave),
+        ("pinfall", f"{o.pinfall} of {len(o.set_pins)}"),
+        ("standing", standing),
+        ("touched by the ball", touched),
+        ("hand", o.hand),
+        ("exit board", "-" if o.exit_board is None else f"{o.exit_board:.1f}"),
+        (
+            "deflection",
+            "-" if o.deflection_boards is None else f"{o.deflection_boards:+.1f} boards",
+        ),
+        ("hand-off", f"{pins.handoff_t_s:.4f} s"),
+        ("pin action ended", f"{pins.rest_t_s:.4f} s"),
+    ]
+    return "\n".join(
+        [f"# {o.leave}", "", o.line(), "", "| quantity | value |", "|---|---|"]
+        + [f"| {k} | {v} |" for k, v in rows]
     )
 
 
@@ -614,6 +788,8 @@ def _summary_markdown(run: RunData) -> str:
         ("end rev rate", f"{s.rev_rate_end_rpm:.1f} rpm"),
         ("steps / rhs / events", f"{s.n_steps} / {s.n_rhs} / {s.n_events}"),
     ]
+    if run.trajectory.pins is not None:
+        rows.append(("pins", run.trajectory.pins.line()))
     mus = sorted({c.mu for c in friction_cells(run.plan)})
     legend = (
         f"Oil pattern: blue = lowest mu ({mus[0]:.3f}) ... tan = highest mu ({mus[-1]:.3f}); "

@@ -177,6 +177,19 @@ def run_report(request: Request, run_id: str) -> dict[str, Any] | None:
     return cached_report(state, state.archive.resolve_id(run_id))
 
 
+@figures.get("/runs/{run_id}/pins", response_model=dict[str, Any] | None)
+def run_pins(request: Request, run_id: str) -> dict[str, Any] | None:
+    """The run's pins for the pin-deck view: the leave, pinfall, standing and touched pins,
+    the exit board, the deck (spots, m) and each pin's and the ball's recorded motion seen
+    from above (lane frame, m; :func:`bowlrec.sinks.pin_replay.pins_json`); null for a run
+    without pin action."""
+    from bowlrec.sinks.pin_replay import pins_json
+
+    state = _state(request)
+    rid = state.archive.resolve_id(run_id)
+    return pins_json(state.replays.run(rid))
+
+
 @figures.get("/compare/figure.{fmt}", response_class=Response)
 def compare_figure(
     request: Request,

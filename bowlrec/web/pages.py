@@ -202,7 +202,8 @@ def runs_table(request: Request, signed_in: SignedIn) -> Response:
 
 @pages.get("/ui/runs/{run_id}", response_class=HTMLResponse)
 def run_page(request: Request, run_id: str, signed_in: SignedIn) -> Response:
-    """One run: summary, bowler report, figure, downloads, scene and the rerun viewer."""
+    """One run: summary, bowler report, figure, downloads, the pin deck (a run with pin
+    action; drawn by the page's script from ``/runs/{id}/pins``), scene and the rerun viewer."""
     if not signed_in:
         return _render(request, False, "run.html")
     state = _state(request)
@@ -231,6 +232,7 @@ def run_page(request: Request, run_id: str, signed_in: SignedIn) -> Response:
         report_error=report_error,
         scene_json=json.dumps(scene.model_dump(mode="json"), indent=2),
         summary_only=row.get("record") == "summary",
+        has_pins=scene.options.pin_options is not None,
         viewer_url=f"/viewer/index.html?url={base}/runs/{rid}/recording.rrd&hide_welcome_screen",
     )
 
