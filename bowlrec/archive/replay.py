@@ -55,7 +55,20 @@ def simulate_sampled(scene: Scene, record_dt_s: float = DEFAULT_RECORD_DT_S) -> 
 
     sampled = sampled_scene(scene, record_dt_s)
     plan = sampled.resolve()
-    return RunData(sampled, plan, run_plan(plan))
+    return RunData(sampled, plan, _with_pins(plan, run_plan(plan)))
+
+
+def _with_pins(plan: Plan, trajectory: Any) -> Any:
+    """``trajectory`` with its pins run again when ``plan`` asks for pin action."""
+    if plan.pins is None:
+        return trajectory
+    from dataclasses import replace
+
+    from bowlrec.pins.engine import require_mujoco
+    from bowlrec.pins.outcome import pin_outcome
+
+    require_mujoco()
+    return replace(trajectory, pins=pin_outcome(plan, trajectory))
 
 
 def rerecord_is_exact(plan: Plan) -> bool:
@@ -101,27 +114,30 @@ def replay_data(
     archive: Archive, run_id: str, *, record_dt_s: float = DEFAULT_RECORD_DT_S
 ) -> RunData:
     """Run ``run_id`` (an ID or unique prefix) of ``archive`` with samples, for a viewer or a
-    figure.
+        figure.
 
-    A run stored with samples is returned as :meth:`Archive.run_data` gives it. A summary-only
-    run is simulated again from its stored scene recording samples every ``record_dt_s`` s
-    (``options.record = "rate"``); the returned run has that scene and its plan, the stored
-    run's ID and provenance, and ``rerecorded_dt_s`` (s) added to the provenance. Nothing is
-    written to the archive.
+        A run stored with samples is returned as :meth:`Archive.run_data` gives it. A summary-only
+        run is simulated again from its stored scene recording samples every ``record_dt_s`` s
+        (``options.record = "rate"``); the returned run has that scene and its plan, the stored
+        run's ID and provenance, and ``rerecorded_dt_s`` (s) added to the provenance. Nothing is
+        written to the archive.
 
-    The new summary is checked against the stored one. When :func:`rerecord_is_exact` holds for
-    the stored plan (a real, non-uniform ball), the same steps are taken and every field must be
-    equal bit for bit. Otherwise (uniform or nearly uniform balls) the outcome, message and
-    event count must be equal, the step counts are not compared, and each float field must
-    agree within ``rtol * (1 + |stored|)`` in its own unit (m, deg, s, m/s, rpm), ``rtol``
-    being the scene's integrator tolerance: both runs solve the same equations to that
-    tolerance, and on the benchmark deliveries (random_scene_dicts, Table III, uniform balls)
-    they differ by less than 1e-5 of it. A larger difference means the stored run was made by
-    other physics: :class:`~bowlrec.errors.ConflictError` naming the run and the first field
-    that differs.
+        A run with pin action runs through the pins again too (the engine is deterministic on one
+    build), and its standing and touched pins must be the stored ones.
 
-    Raises :class:`~bowlrec.errors.RunNotFoundError` and
-    :class:`~bowlrec.errors.RunDamagedError` as :meth:`Archive.load` does.
+        The new summary is checked against the stored one. When :func:`rerecord_is_exact` holds for
+        the stored plan (a real, non-uniform ball), the same steps are taken and every field must be
+        equal bit for bit. Otherwise (uniform or nearly uniform balls) the outcome, message and
+        event count must be equal, the step counts are not compared, and each float field must
+        agree within ``rtol * (1 + |stored|)`` in its own unit (m, deg, s, m/s, rpm), ``rtol``
+        being the scene's integrator tolerance: both runs solve the same equations to that
+        tolerance, and on the benchmark deliveries (random_scene_dicts, Table III, uniform balls)
+        they differ by less than 1e-5 of it. A larger difference means the stored run was made by
+        other physics: :class:`~bowlrec.errors.ConflictError` naming the run and the first field
+        that differs.
+
+        Raises :class:`~bowlrec.errors.RunNotFoundError` and
+        :class:`~bowlrec.errors.RunDamagedError` as :meth:`Archive.load` does.
     """
     from dataclasses import replace
 
@@ -136,7 +152,7 @@ def replay_data(
         raise ValueError(f"record_dt_s = {record_dt_s!r} must be a positive number of seconds")
     scene = sampled_scene(stored.scene, record_dt_s)
     plan = replace(stored.plan, record_mode=RECORD_RATE, record_dt_s=float(record_dt_s))
-    trajectory = run_plan(plan)
+    trajectory = _with_pins(plan, run_plan(plan))
     old, new = stored.trajectory.summary, trajectory.summary
     field = _first_difference(
         old, new, exact=rerecord_is_exact(stored.plan), rtol=float(stored.plan.rtol)
@@ -145,6 +161,21 @@ def replay_data(
         raise ConflictError(
             f"run {stored.run_id}: re-recorded {field} {_show(getattr(new, field))} differs "
             f"from the archived {_show(getattr(old, field))} (made by another physics version?)"
+        )
+    was, now = stored.trajectory.pins, trajectory.pins
+    if (
+        was is not None
+        and now is not None
+        and (was.standing, was.touched)
+        != (
+            now.standing,
+            now.touched,
+        )
+    ):
+        raise ConflictError(
+            f"run {stored.run_id}: re-recorded pins leave {now.standing} (touched {now.touched}) "
+            f"where the archived run left {was.standing} (touched {was.touched}): made by "
+            "another build of the pin engine?"
         )
     provenance = dict(stored.provenance or {})
     provenance["rerecorded_dt_s"] = float(record_dt_s)
