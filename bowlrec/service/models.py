@@ -102,6 +102,12 @@ class RunRow(BaseModel):
     ball_sha: str | None = None
     pattern: str | None = None
     outcome: str | None = None
+    pinfall: int | None = Field(
+        default=None, description="Pins down after the ball (runs with pin action)."
+    )
+    leave: str | None = Field(
+        default=None, description="The pins left standing in bowlers' names (runs with pins)."
+    )
     slide_m: float | None = None
     hook_m: float | None = None
     pocket_deg: float | None = None

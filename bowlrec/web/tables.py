@@ -30,6 +30,7 @@ RUN_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("ball", "ball", 1.0, ""),
     ("pattern", "pattern", 1.0, ""),
     ("outcome", "outcome", 1.0, ""),
+    ("leave", "leave", 1.0, ""),
     ("speed (m/s)", "speed_mps", 1.0, ".2f"),
     ("revs (rpm)", "rev_rate_rpm", 1.0, ".0f"),
     ("slide (m)", "slide_m", 1.0, ".3f"),
