@@ -91,7 +91,8 @@ def list_runs(
     leave: Annotated[
         str | None,
         typer.Option(
-            help="Runs with pin action that left this leave, as listed: strike, "10 pin", "7-10 split"."
+            help="Runs with pin action that left this leave, as listed: strike, '10 pin', "
+            "'7-10 split'.",
         ),
     ] = None,
     pinfall: Annotated[
