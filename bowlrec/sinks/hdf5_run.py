@@ -10,6 +10,14 @@ Layout (every dataset has a ``units`` attribute; arrays are chunked, gzip level 
   ``/trajectory/torques/<term>`` when per-term torques were recorded.
 - ``/events/{t_s,kind,x_m,y_m,mu,phase}``: one row per event.
 - ``/summary``: the summary metrics as attributes (absent when None).
+- ``/pins`` (format 1.1; only for a run with pin action, ``options.pins``): the pins' recorded
+  motion as the archive's ``pins/`` group holds it (``t_s``, ``pin_position_m``,
+  ``pin_quaternion_wxyz``, ``ball_position_m``, ``ball_quaternion_wxyz``, ``energy_J``; pin p is
+  column p - 1, NaN for a pin not set), and the archive's one-row groups without their row axis:
+  ``/pins/outcome/*``, ``/pins/action/*``, ``/pins/entry/*``, ``/pins/extras/{name,value}``
+  (:mod:`bowlrec.archive.pin_records`); attribute ``outcome_json`` (``PinOutcome.to_dict()``).
+  The resolved pin model is the ``/resolved`` attribute ``pins_json``. A run without pins is
+  written exactly as by format 1.0 and declares 1.0.
 
 Files are written with the default ``libver`` (readable by HDF5 1.10-era tools; ``"latest"``
 in h5py 3.16 / HDF5 2.0 writes structures older readers reject) and whole-or-nothing through
@@ -36,12 +44,14 @@ from bowlrec.units import DIMENSIONLESS, units_for
 from .common import RunData, dumps
 
 if TYPE_CHECKING:
+    from bowlrec.pins.outcome import PinOutcome
     from bowlrec.spec import Scene
 
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
     "GZIP_FILTERS",
+    "PINS_FORMAT_VERSION",
     "RunFileError",
     "StoredRun",
     "read_run_file",
@@ -53,6 +63,8 @@ __all__ = [
 FORMAT_NAME = "bowlrec-run"
 #: major.minor: readers accept any minor of their major; a major change breaks old readers
 FORMAT_VERSION = "1.0"
+#: the minor version a run file declares when it holds the run's pins (``/pins``)
+PINS_FORMAT_VERSION = "1.1"
 
 #: the one compression of bowlrec's HDF5 files (run files here, archive segments): shuffle +
 #: gzip level 4 (sizes and read times: benchmarks/results/archive.md)
@@ -99,6 +111,8 @@ def _write_resolved(group: h5py.Group, run: RunData) -> None:
             continue  # an optional external term that is off (as the run ID leaves it out)
         if f.name == "labels":
             group.attrs["labels_json"] = json.dumps(value, sort_keys=True)
+        elif f.name == "pins" and value is not None:
+            group.attrs["pins_json"] = json.dumps(dataclasses.asdict(value), sort_keys=True)
         elif value is None:
             group.attrs[f"{f.name}_is_none"] = True
         else:
@@ -134,6 +148,60 @@ def _write_summary(group: h5py.Group, summary: Summary) -> None:
             group.attrs[key] = value
 
 
+#: the archive's pin record groups (bowlrec.archive.pin_records) -> their group in ``/pins``
+#: ("": the per-sample datasets, in ``/pins`` itself)
+_PIN_GROUPS = {
+    "pin_outcome": "outcome",
+    "pin_action": "action",
+    "pin_entry": "entry",
+    "pins": "",
+    "pin_extras": "extras",
+}
+#: groups of one row in the archive, written here without their row axis
+_PIN_ONE_ROW = ("pin_outcome", "pin_action", "pin_entry")
+
+
+def _write_pins(group: h5py.Group, outcome: PinOutcome) -> None:
+    from bowlrec.archive.pin_records import PIN_MEANINGS, pin_groups
+
+    group.attrs["outcome_json"] = dumps(outcome.to_dict())
+    for record, datasets in pin_groups(outcome).items():
+        sub = group.require_group(_PIN_GROUPS[record]) if _PIN_GROUPS[record] else group
+        for name, arr in datasets.items():
+            data = arr[0] if record in _PIN_ONE_ROW else arr
+            units, meaning = PIN_MEANINGS.get(f"{record}/{name}", (None, None))
+            if data.dtype.kind == "S":  # text: UTF-8 strings, as the events' kinds
+                text = np.array([b.decode() for b in data.ravel()], dtype=object)
+                ds = sub.create_dataset(name, data=text.reshape(data.shape), dtype=_STR)
+            else:
+                opts = {"chunks": True, **GZIP_FILTERS} if data.ndim and data.size else {}
+                ds = sub.create_dataset(name, data=data, **opts)
+            ds.attrs["units"] = units or units_for(name)
+            if meaning is not None:
+                ds.attrs["meaning"] = meaning
+
+
+def _read_pins(group: h5py.Group) -> PinOutcome | None:
+    from bowlrec.archive.pin_records import pin_outcome_of
+
+    records: dict[str, dict[str, Any]] = {}
+    for record, where in _PIN_GROUPS.items():
+        if where and where not in group:
+            continue
+        sub = group[where] if where else group
+        rows: dict[str, Any] = {}
+        for name, ds in sub.items():
+            if not isinstance(ds, h5py.Dataset):
+                continue
+            if h5py.check_string_dtype(ds.dtype) is not None:
+                value = np.char.encode(np.asarray(ds.asstr()[()], dtype=np.str_), "utf-8")
+            else:
+                value = ds[()]
+            rows[name] = np.asarray(value)[None] if record in _PIN_ONE_ROW else value
+        records[record] = rows
+    return pin_outcome_of(records)
+
+
 def write_run_file(
     path: str | Path, run: RunData, attrs: dict[str, Any], *, durable: bool = True
 ) -> Path:
@@ -145,7 +213,8 @@ def write_run_file(
     path = Path(path)
     with atomic_path(path, durable=durable) as tmp, h5py.File(tmp, "w") as f:
         f.attrs["format"] = FORMAT_NAME
-        f.attrs["format_version"] = FORMAT_VERSION
+        pins = run.trajectory.pins
+        f.attrs["format_version"] = FORMAT_VERSION if pins is None else PINS_FORMAT_VERSION
         f.attrs["run_id"] = run.run_id or ""
         f.attrs["name"] = run.scene.name
         f.attrs["scene_json"] = run.scene_json()
@@ -156,6 +225,10 @@ def write_run_file(
         _write_trajectory(f.create_group("trajectory"), run.trajectory)
         _write_events(f.create_group("events"), run.trajectory.events)
         _write_summary(f.create_group("summary"), run.trajectory.summary)
+        if pins is not None:
+            if pins.action is not None and "pin_engine_version" not in attrs:
+                f.attrs["pin_engine_version"] = pins.action.engine
+            _write_pins(f.create_group("pins"), pins)
     return path
 
 
@@ -215,7 +288,8 @@ def _read_events(group: h5py.Group) -> list[Event]:
 
 
 def read_run_file(path: str | Path) -> StoredRun:
-    """Read a run file back: the Scene (equal to the one written) and the Trajectory.
+    """Read a run file back: the Scene (equal to the one written) and the Trajectory, with its
+    ``pins`` (the :class:`~bowlrec.pins.outcome.PinOutcome` written, format 1.1) or None.
 
     Arrays come back with the dtypes and values that were written (bit-for-bit).
     """
@@ -232,7 +306,8 @@ def read_run_file(path: str | Path) -> StoredRun:
             for term in tg["torques"].attrs["order"]:
                 torques[str(term)] = tg["torques"][term][()]
         events = _read_events(f["events"])
+        pins = _read_pins(f["pins"]) if "pins" in f else None
     summary = Summary(**json.loads(attrs["summary_json"]))
-    traj = Trajectory(**arrays, events=events, summary=summary, torques_Nm=torques)
+    traj = Trajectory(**arrays, events=events, summary=summary, torques_Nm=torques, pins=pins)
     scene = Scene.model_validate_json(attrs["scene_json"])
     return StoredRun(run_id=str(attrs["run_id"]), scene=scene, trajectory=traj, attrs=attrs)
