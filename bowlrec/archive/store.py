@@ -275,7 +275,8 @@ class Archive:
         return reading.run_data(self.directory, run_id)
 
     def export(self, run_id: str, dest: str | os.PathLike[str]) -> Path:
-        """Write one run as a ``bowlrec-run`` 1.0 file at ``dest`` (a file or a directory)."""
+        """Write one run as a ``bowlrec-run`` file (1.0; 1.1 with pins) at ``dest`` (a file or a
+        directory)."""
         return reading.export(self.directory, run_id, dest)
 
     def close(self) -> None:
