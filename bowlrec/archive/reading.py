@@ -93,8 +93,8 @@ def run_data(d: ArchiveDir, run_id: str) -> RunData:
 
 
 def export(d: ArchiveDir, run_id: str, dest: str | os.PathLike[str]) -> Path:
-    """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, 1.1 with pins, with the
-    resolved parameters and the run's provenance) at ``dest`` (a file or an existing
+    """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, 1.1 with pins,
+    with the resolved parameters and the run's provenance) at ``dest`` (a file or an existing
     directory)."""
     from bowlrec.sinks.registry import sink_named
 
