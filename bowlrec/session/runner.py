@@ -233,7 +233,7 @@ def pin_seed(seed: int, shot: int) -> int:
     return int(sequence.generate_state(1)[0])
 
 
-def ball_mark(pinfall: int, standing: int, full_rack: bool) -> str:
+def ball_mark(pinfall: int, standing: int, *, full_rack: bool) -> str:
     """A ball on the scoresheet: ``X`` all ten down at a full rack, ``/`` the rest down at a
     leave, ``-`` no pin, else the pinfall."""
     if standing == 0:
@@ -724,8 +724,7 @@ def _row(
     ledger: TransferLedger = state.ledger
     mark = None
     if state.pinfall is not None and state.standing is not None:
-        full = state.pinfall + len(state.standing) == 10
-        mark = ball_mark(state.pinfall, len(state.standing), full)
+        mark = ball_mark(state.pinfall, len(state.standing), full_rack=line.key_pin is None)
     return ShotRow(
         shot=state.shot,
         game=state.game,

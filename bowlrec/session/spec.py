@@ -33,7 +33,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    Field,
+    ValidationError,
+    field_serializer,
+    field_validator,
+    model_validator,
+)
 
 from bowlrec.bowling.oil import KegelPattern, RectanglePattern, preset, preset_names
 from bowlrec.bowling.oil_friction import OilFrictionMapping
@@ -222,6 +228,16 @@ class SessionSpec(SpecModel):
                     "pins' tolerances from the session's seed, the bowler's hand): leave "
                     f"{', '.join(PER_BALL_PIN_FIELDS)} out"
                 )
+        return pins
+
+    @field_serializer("pins")
+    def _pins_without_per_ball_fields(
+        self, pins: bool | PinOptions | None
+    ) -> bool | dict[str, Any] | None:
+        """The pin model's parameters as the session file gives them: without the fields the
+        session sets per ball (a dump reads back)."""
+        if isinstance(pins, PinOptions):
+            return pins.model_dump(mode="json", exclude=set(PER_BALL_PIN_FIELDS))
         return pins
 
     @model_validator(mode="after")
