@@ -28,6 +28,8 @@ TABLE_COLUMNS = (
     "entry_angle_deg",
     "breakpoint_board",
     "breakpoint_ft",
+    "laydown_board",
+    "target_board",
     "lane_oil_ul",
     "lifted_ul",
     "deposited_ul",
