@@ -347,6 +347,7 @@ ROUTE_AUTH: dict[tuple[str, str], str] = {
     ("GET", "/runs/{run_id}/spec"): "401",
     ("GET", "/runs/{run_id}/files/{kind}"): "401",
     ("GET", "/runs/{run_id}/recording.rrd"): "401",
+    ("GET", "/runs/{run_id}/pins"): "401",
     ("GET", "/runs/{run_id}/figure.{fmt}"): "401",
     ("GET", "/runs/{run_id}/report"): "401",
     ("GET", "/compare/figure.{fmt}"): "401",
