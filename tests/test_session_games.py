@@ -210,10 +210,11 @@ def test_a_spare_ball_crosses_the_key_pins_board(leave: tuple[int, ...]) -> None
     spare = spare_target(leave, "right")
     s.racks[bowler.name] = _Rack(leave, {})
     line = s.line_for(bowler)
-    assert line.key_pin == spare.key_pin and line.spare_board == pytest.approx(spare.board)
+    assert line.key_pin == spare.key_pin
+    assert line.spare_board == pytest.approx(spare.target_board)
     strike = bowler.scene.delivery
     assert line.scene.delivery.laydown_board == pytest.approx(
-        strike.laydown_board + spare.feet_boards
+        strike.laydown_board + spare.stance_move_boards
     )
     for shot in (2, 3):
         scene = s.shot_scene(bowler, shot, line)
@@ -221,7 +222,7 @@ def test_a_spare_ball_crosses_the_key_pins_board(leave: tuple[int, ...]) -> None
         assert tuple(scene.options.pin_options.standing) == leave
         traj = run_plan(scene.resolve())
         entry = bowler_report(traj, line.scene.lane, "right").entry_board
-        assert entry is not None and abs(entry - spare.board) < 1.5
+        assert entry is not None and abs(entry - spare.target_board) < 1.5
 
 
 # --- the frame logic, with a scripted pin engine ------------------------------------------------

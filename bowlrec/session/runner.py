@@ -13,12 +13,14 @@ archive with the oil grid and the session's state after it (:mod:`bowlrec.sessio
   bowler's strike line; a strike ends the frame. Otherwise the second ball is thrown at the
   leave, its pins standing where the first ball left them (the pinsetter sets them back where
   it picked them up: :func:`bowlrec.pins.outcome.standing_offsets_m`, each offset kept within
-  the 0.3 m a pin may stand off its spot), with the **3-6-9 spare system**
+  the 0.3 m a pin may stand off its spot), with the **3-6-9 cross-lane spare system**
   (:func:`bowlrec.pins.spares.spare_target`): the leave's key pin gives a board at the head
-  pin line (60 ft) and a move of the feet; the bowler lays the ball down that many boards
-  from the strike line's laydown, and the target at the arrows is aimed (:func:`aim`) so that
-  the ball crosses the key pin's board at the head pin line on the lane as it is then (same
-  ball, same release scatter as any shot). In the tenth frame a fresh rack is set after each
+  pin line (60 ft) and a stance move of 3 boards per pin column, away from the key pin; the
+  bowler lays the ball down that many boards from the strike line's laydown, and the target
+  at the arrows is aimed (:func:`aim`, the target free) so that the ball crosses that board
+  at the head pin line on the lane as it is then (same ball, same release scatter as any
+  shot; a board the ball cannot reach gets the closest line tried, a line that never reaches
+  the arrows the strike line). In the tenth frame a fresh rack is set after each
   strike and after a spare; a ball at a fresh rack is thrown with the strike line. Each ball's
   pins get their own tolerances (weight, centre of gravity, spotting) from the seed
   ``numpy.random.SeedSequence([seed, shot], spawn_key=(1,)).generate_state(1)[0]``; the leave
@@ -172,9 +174,10 @@ class ShotRow:
 
 @dataclass(frozen=True)
 class GameRow:
-    """One bowler's game scored by the pins: the score, the scoresheet's marks (frames separated
-    by spaces: ``X``, ``7/``, ``9-``, tenth ``X9/``) and the running score after each frame
-    complete so far; ``finished`` False for a game the session stopped in (``max_shots``)."""
+    """One bowler's game scored by the pins: the score, the score sheet's marks (frames
+    separated by spaces: ``X``, ``7/``, ``9-``, tenth ``X9/``) and the running score after each
+    frame decided so far (a strike or spare waits for its bonus balls); ``finished`` False for
+    a game the session stopped in (``max_shots``)."""
 
     bowler: str
     game: int
@@ -463,8 +466,8 @@ class _Session:
             return strike
         d = bowler.scene.delivery
         spare = spare_target(rack.standing, d.handedness)
-        laydown = min(max(d.laydown_board + spare.feet_boards, 1.0), 39.0)
-        board = min(max(spare.board, 1.0), 39.0)
+        laydown = min(max(d.laydown_board + spare.stance_move_boards, 1.0), 39.0)
+        board = min(max(spare.target_board, 1.0), 39.0)
         moved = d.model_copy(update={"laydown_board": laydown})
         scene = bowler.scene.model_copy(update={"delivery": moved})
         lane = self.lane_for(scene)
@@ -500,7 +503,7 @@ class _Session:
                     game=number,
                     score=int(g.score),
                     marks=str(g.marks()),
-                    frame_scores=tuple(int(v) for v in g.frame_scores()),
+                    frame_scores=tuple(int(v) for v in g.frame_scores() if v is not None),
                     finished=bool(g.finished),
                 )
             )
