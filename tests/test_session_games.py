@@ -393,7 +393,9 @@ def test_without_the_extra_sessions_keep_the_pocket_rule_and_say_so(
     session = tmp_path / "s.json"
     session.write_text(json.dumps(expected["session"]))
     done = CliRunner().invoke(
-        app, ["session", str(session), "-a", str(tmp_path / "a"), "--max-shots", "2", "-q"]
+        app,
+        ["session", str(session), "-a", str(tmp_path / "a"), "-o", str(tmp_path / "out")]
+        + ["--max-shots", "2", "-q"],
     )
     assert done.exit_code == 0, done.stderr
     assert "scored by pocket window (pins extra not installed)" in done.stderr
