@@ -317,6 +317,7 @@ def test_a_sessions_figures_show_its_table(tmp_path: Path, monkeypatch: pytest.M
             "name": "t",
             "games": 1,
             "seed": 3,
+            "pins": False,
             "grid": {"cell_ft": 3.0, "cell_boards": 1.0},
             "record_dt_s": 0.01,
             "bowlers": [

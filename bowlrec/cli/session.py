@@ -28,13 +28,24 @@ TABLE_COLUMNS = (
     "entry_angle_deg",
     "breakpoint_board",
     "breakpoint_ft",
+    "laydown_board",
+    "target_board",
     "lane_oil_ul",
     "lifted_ul",
     "deposited_ul",
     "absorbed_ul",
     "ball_load_ul",
     "simulated",
+    "pinfall",
+    "leave",
+    "standing",
+    "mark",
+    "score",
+    "key_pin",
+    "spare_board",
 )
+#: the games table's columns (GameRow fields; frame_scores space-separated)
+GAME_COLUMNS = ("bowler", "game", "score", "marks", "frame_scores", "finished")
 
 
 @app.command()
@@ -83,8 +94,13 @@ def session(
     ``sweep`` plays one session per point; sessions run in parallel with --workers or
     --scheduler.
 
-    Writes per session: shots.csv (one row per shot), oil.svg/png (the oil before and after)
-    and drift.svg/png (breakpoint, entry board and angle over the session).
+    Balls are scored by the pins that fall when the pins extra (MuJoCo) is installed or the
+    session says ``pins: true`` (ten-pin games, spares shot with the 3-6-9 system), else by the
+    pocket-window rule; the summary says which.
+
+    Writes per session: shots.csv (one row per shot), games.csv (each bowler's games, with
+    pins), oil.svg/png (the oil before and after) and drift.svg/png (breakpoint, entry board
+    and angle over the session).
     """
     from bowlrec.session.spec import load_sessions
 
@@ -127,11 +143,30 @@ def session(
         typer.echo(
             f"{s['name']}: {s['shots']} shots ({s['simulated']} simulated, {s['resumed']} read "
             f"back from the archive) in {s['seconds']:.1f} s; lane oil {s['oil_before_ul']:.0f} "
-            f"-> {s['oil_after_ul']:.0f} uL; strikes {s['strikes']}/{s['first_balls']}",
+            f"-> {s['oil_after_ul']:.0f} uL; strikes {s['strikes']}/{s['first_balls']}; "
+            f"scored by {s['rule']}",
             err=True,
         )
+        for line in game_lines(s["games"]):
+            typer.echo(f"  {line}", err=True)
         if not quiet:
-            typer.echo(f"  {s['out']}/: shots.csv, oil.svg/png, drift.svg/png", err=True)
+            tables = "shots.csv, games.csv" if s["games"] else "shots.csv"
+            typer.echo(f"  {s['out']}/: {tables}, oil.svg/png, drift.svg/png", err=True)
+
+
+def game_lines(games: list[dict[str, Any]]) -> list[str]:
+    """One line per bowler: the game scores in order (an unfinished game marked with ``+``:
+    its score so far) and the marks of each game."""
+    by_bowler: dict[str, list[dict[str, Any]]] = {}
+    for g in games:
+        by_bowler.setdefault(g["bowler"], []).append(g)
+    lines = []
+    for name, own in by_bowler.items():
+        scores = ", ".join(f"{g['score']}{'' if g['finished'] else '+'}" for g in own)
+        total = sum(g["score"] for g in own)
+        lines.append(f"{name}: {scores} (series {total})")
+        lines.extend(f"  game {g['game']}: {g['marks']}" for g in own)
+    return lines
 
 
 def _out_dir(out: Path | None, file: Path, several: bool, point: str | None) -> Path:
@@ -158,7 +193,12 @@ def _play_one(
     finally:
         store.close()
     paths = write_outputs(result, Path(out_dir))
-    first = [r for r in result.rows if r.ball == 1]
+    if result.pins:  # every ball at a full rack (the tenth frame's bonus balls too)
+        first = [r for r in result.rows if r.key_pin is None]
+        strikes = sum(r.mark == "X" for r in first)
+    else:
+        first = [r for r in result.rows if r.ball == 1]
+        strikes = sum(r.pocket for r in first)
     return {
         "name": spec.name,
         "session_id": result.session_id,
@@ -168,8 +208,10 @@ def _play_one(
         "seconds": result.seconds,
         "oil_before_ul": float(result.fresh.volume_ul.sum()),
         "oil_after_ul": float(result.final.volume_ul.sum()),
-        "strikes": sum(r.pocket for r in first),
+        "rule": result.rule,
+        "strikes": strikes,
         "first_balls": len(first),
+        "games": [g.to_dict() for g in result.games],
         "aims": result.aims,
         "out": str(Path(out_dir)),
         "files": [str(p) for p in paths],
@@ -193,8 +235,18 @@ def _run(spec: Any, store: Any, max_shots: int | None, quiet: bool) -> SessionRe
     return result
 
 
+def _cell(value: Any) -> Any:
+    """A CSV cell: empty for None, pin numbers space-separated."""
+    if value is None:
+        return ""
+    if isinstance(value, tuple | list):
+        return " ".join(str(v) for v in value)
+    return value
+
+
 def write_outputs(result: SessionResult, out_dir: Path) -> list[Path]:
-    """The shots table (CSV) and the figures (SVG and PNG) of a session, written atomically."""
+    """The shots table (CSV), the games table (CSV, with pins) and the figures (SVG and PNG)
+    of a session, written atomically."""
     from bowlrec.atomic_files import atomic_path
     from bowlrec.figures.render import figure_bytes
     from bowlrec.figures.session import drift_figure, oil_before_after_figure
@@ -206,7 +258,15 @@ def write_outputs(result: SessionResult, out_dir: Path) -> list[Path]:
         w.writerow(TABLE_COLUMNS)
         for r in result.rows:
             d = r.to_dict()
-            w.writerow(["" if d[c] is None else d[c] for c in TABLE_COLUMNS])
+            w.writerow([_cell(d[c]) for c in TABLE_COLUMNS])
+    if result.games:
+        paths.append(out_dir / "games.csv")
+        with atomic_path(paths[-1], durable=False) as tmp, open(tmp, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(GAME_COLUMNS)
+            for g in result.games:
+                d = g.to_dict()
+                w.writerow([_cell(d[c]) for c in GAME_COLUMNS])
     name = result.spec.name
     figures = {
         "oil": oil_before_after_figure(

@@ -8,15 +8,22 @@ Every shot of a session is an archived run carrying two per-run record groups
   right gutter) and ``volume_ul`` (µL in the cell);
 * ``session/``: ``state_json``, the UTF-8 bytes of a compact JSON object: the session ID, the
   shot's place (shot, game, frame, ball, bowler), every bowler's ball load (µL on the cover at
-  its next release) and the shot's oil ledger (µL).
+  its next release) and the shot's oil ledger (µL); in a session scored by the pins also the
+  ball's ``pinfall`` (count), the pins ``standing`` after it (pin numbers), where they stand
+  (``moved``: pin number -> [dx, dy], the base centre's offset from its spot, m, lane frame:
+  +x toward the pit, +y left), the ``leave`` in bowlers' words and the bowler's game
+  ``score`` after the ball (pins, bonuses counted as far as the balls thrown give them).
 
 Both are what a resumed session needs to continue after the shot without simulating it again.
+A state written without the pins' keys (the pocket-window rule, or a session stored before
+sessions had pins) reads with ``pinfall``, ``standing``, ``leave`` and ``score`` None and no
+``moved`` pins.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -44,10 +51,21 @@ class ShotState:
     #: every bowler's ball load at its next release (µL)
     loads_ul: dict[str, float]
     ledger: TransferLedger
+    #: pins knocked down by the ball (None: the pocket-window rule, no pins)
+    pinfall: int | None = None
+    #: pins standing after the ball, ascending (None without pins)
+    standing: tuple[int, ...] | None = None
+    #: standing pins off their spots after the ball: pin -> (dx, dy) (m, lane frame)
+    moved: dict[int, tuple[float, float]] = field(default_factory=dict)
+    #: the standing pins in bowlers' words (None without pins)
+    leave: str | None = None
+    #: the bowler's game score after the ball (None without pins)
+    score: int | None = None
 
     def to_json(self) -> bytes:
-        """Compact JSON (UTF-8) with the ledger's fields by name."""
-        data = {
+        """Compact JSON (UTF-8) with the ledger's fields by name; the pins' keys only with
+        pins (a pocket-window shot's state is what it was before sessions had pins)."""
+        data: dict[str, Any] = {
             "session_id": self.session_id,
             "shot": self.shot,
             "game": self.game,
@@ -57,6 +75,16 @@ class ShotState:
             "loads_ul": self.loads_ul,
             "ledger": {k: getattr(self.ledger, k) for k in _LEDGER_FIELDS},
         }
+        if self.pinfall is not None:
+            data.update(
+                {
+                    "pinfall": self.pinfall,
+                    "standing": list(self.standing or ()),
+                    "moved": {str(p): list(xy) for p, xy in self.moved.items()},
+                    "leave": self.leave,
+                    "score": self.score,
+                }
+            )
         return json.dumps(data, sort_keys=True, separators=(",", ":")).encode()
 
     @classmethod
@@ -71,6 +99,11 @@ class ShotState:
             bowler=d["bowler"],
             loads_ul={k: float(v) for k, v in d["loads_ul"].items()},
             ledger=TransferLedger(**{k: float(d["ledger"][k]) for k in _LEDGER_FIELDS}),
+            pinfall=None if d.get("pinfall") is None else int(d["pinfall"]),
+            standing=None if d.get("standing") is None else tuple(int(p) for p in d["standing"]),
+            moved={int(p): (float(xy[0]), float(xy[1])) for p, xy in d.get("moved", {}).items()},
+            leave=d.get("leave"),
+            score=None if d.get("score") is None else int(d["score"]),
         )
 
 

@@ -14,13 +14,15 @@ changes shot by shot.
         scatter: pro                    # robot | pro | league | {speed_mph: ..., ...}
       - name: Bo
         scene: {ball: {...}, delivery: {...}}
+    pins: true                          # games by pinfall; false: the pocket-window rule
     transfer: {pickup_fraction: 0.5}    # bowlrec.bowling.oil_transfer.TransferModel
     grid: {cell_ft: 1, cell_boards: 1}  # the oil grid the lane evolves on
 
 Each bowler's scene gives the ball, layout, delivery and target; the session's ``pattern``
 replaces the scene's own (every bowler bowls on the same lane). The session's friction mapping
 (``oil_friction``, default the calibrated mapping of bowler scenes, whose power ramp below a
-0.5 um film makes breakdown change the friction) replaces the scenes' own.
+0.5 um film makes breakdown change the friction) replaces the scenes' own, and the session's
+pin rule (``pins``, :meth:`SessionSpec.pin_rule`) replaces the scenes' ``options.pins``.
 """
 
 from __future__ import annotations
@@ -31,7 +33,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal, TypeVar
 
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    Field,
+    ValidationError,
+    field_serializer,
+    field_validator,
+    model_validator,
+)
 
 from bowlrec.bowling.oil import KegelPattern, RectanglePattern, preset, preset_names
 from bowlrec.bowling.oil_friction import OilFrictionMapping
@@ -44,6 +52,7 @@ from bowlrec.scene_input import check_scene_input, prefix_lines
 from bowlrec.spec import format_validation_error
 from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, spec_error
 from bowlrec.spec.loading import read_mapping
+from bowlrec.spec.pins import PinOptions
 
 __all__ = [
     "Adjustment",
@@ -51,6 +60,7 @@ __all__ = [
     "MAX_GAMES",
     "SESSION_FORMAT",
     "OilGridSpec",
+    "PER_BALL_PIN_FIELDS",
     "SessionBowler",
     "SessionSpec",
     "MAX_SESSIONS",
@@ -58,6 +68,7 @@ __all__ = [
     "load_session",
     "load_sessions",
     "parse_session",
+    "pins_installed",
 ]
 
 SESSION_FORMAT = "bowlrec-session"
@@ -67,6 +78,11 @@ MAX_GAMES = 60
 MAX_SESSIONS = 1000
 
 _T = TypeVar("_T")
+
+#: PinOptions fields a session sets for every ball itself: the pins set (a full rack or the
+#: leave), where the leave's pins stand, the pins' tolerances (drawn per ball) and whose names
+#: the leave gets (the bowler's hand)
+PER_BALL_PIN_FIELDS = ("standing", "moved", "seed", "hand")
 
 
 class OilGridSpec(SpecModel):
@@ -164,6 +180,16 @@ class SessionSpec(SpecModel):
             "aiming bowlers aim at its board."
         ),
     )
+    pins: bool | PinOptions | None = Field(
+        default=None,
+        description=(
+            "How a ball's pinfall is found. null (default): the pins when the bowlrec[pins] "
+            "extra (MuJoCo) is installed, else the pocket-window rule; true: the pins with the "
+            "pin model's defaults; a mapping: the pins with these parameters (options.pins, "
+            "without standing, moved, seed and hand, which the session sets per ball); false: "
+            "the pocket-window rule (a first ball in the pocket is a strike)."
+        ),
+    )
     transfer: TransferModel = Field(default_factory=lambda: TransferModel())
     grid: OilGridSpec = Field(default_factory=lambda: OilGridSpec())
     oil_friction: OilFrictionMapping | None = Field(
@@ -191,6 +217,29 @@ class SessionSpec(SpecModel):
             )
         return pattern
 
+    @field_validator("pins")
+    @classmethod
+    def _no_per_ball_pins(cls, pins: bool | PinOptions | None) -> bool | PinOptions | None:
+        if isinstance(pins, PinOptions):
+            given = [f for f in PER_BALL_PIN_FIELDS if f in pins.model_fields_set]
+            if given:
+                raise spec_error(
+                    f"{given[0]} is set per ball by the session (the rack or the leave, the "
+                    "pins' tolerances from the session's seed, the bowler's hand): leave "
+                    f"{', '.join(PER_BALL_PIN_FIELDS)} out"
+                )
+        return pins
+
+    @field_serializer("pins")
+    def _pins_without_per_ball_fields(
+        self, pins: bool | PinOptions | None
+    ) -> bool | dict[str, Any] | None:
+        """The pin model's parameters as the session file gives them: without the fields the
+        session sets per ball (a dump reads back)."""
+        if isinstance(pins, PinOptions):
+            return pins.model_dump(mode="json", exclude=set(PER_BALL_PIN_FIELDS))
+        return pins
+
     @model_validator(mode="after")
     def _distinct_names(self) -> SessionSpec:
         names = [b.name for b in self.bowlers]
@@ -210,11 +259,57 @@ class SessionSpec(SpecModel):
         """The oil pattern as a model (a preset loaded by name)."""
         return preset(self.pattern) if isinstance(self.pattern, str) else self.pattern
 
+    def pin_rule(self) -> PinOptions | None:
+        """The pin model's parameters when the session's balls are scored by the pins that
+        fall, None for the pocket-window rule (``pins`` false, or null without the
+        ``bowlrec[pins]`` extra). MissingExtraError for ``pins`` true or a mapping without
+        the extra."""
+        if self.pins is False:
+            return None
+        if self.pins is None and not pins_installed():
+            return None
+        if self.pins is not None:
+            from bowlrec.pins.engine import require_mujoco
+
+            require_mujoco()
+        return self.pins if isinstance(self.pins, PinOptions) else PinOptions()
+
+    def rule(self) -> str:
+        """The rule in words, as outputs state it: ``pins (MuJoCo 3.3.0)``, ``pocket window
+        (pins extra not installed)`` or ``pocket window (pins: false)``."""
+        if self.pin_rule() is not None:
+            import mujoco
+
+            return f"pins (MuJoCo {mujoco.__version__})"
+        if self.pins is False:
+            return "pocket window (pins: false)"
+        return "pocket window (pins extra not installed)"
+
     def session_id(self) -> str:
         """SHA-256 (hex, 20 digits) of the session's canonical JSON: what every shot's run ID
-        is bound to (a session with any other input has other shots)."""
-        text = json.dumps(self.model_dump(mode="json"), sort_keys=True, separators=(",", ":"))
+        is bound to (a session with any other input has other shots). ``pins`` enters as the
+        rule it resolves to (:meth:`pin_rule`): the pin model's full parameters with the pins,
+        nothing with the pocket-window rule (such a session's ID is the one it had before
+        sessions had pins)."""
+        data = self.model_dump(mode="json")
+        data.pop("pins", None)
+        rule = self.pin_rule()
+        if rule is not None:
+            data["pins"] = rule.model_dump(mode="json", exclude=set(PER_BALL_PIN_FIELDS))
+        text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
+def pins_installed() -> bool:
+    """The ``bowlrec[pins]`` extra (MuJoCo) can be imported."""
+    from bowlrec.errors import MissingExtraError
+    from bowlrec.pins.engine import require_mujoco
+
+    try:
+        require_mujoco()
+    except MissingExtraError:
+        return False
+    return True
 
 
 def _bowler_scenes(data: dict[str, Any], base_dir: Path) -> dict[str, Any]:
