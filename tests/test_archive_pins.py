@@ -22,7 +22,7 @@ import pytest
 from typer.testing import CliRunner
 
 from bowlrec.archive import Archive, SegmentFile
-from bowlrec.archive.pin_records import PIN_GROUPS, pin_groups, pin_outcome_of
+from bowlrec.pins.records import PIN_GROUPS, pin_groups, pin_outcome_of
 from bowlrec.errors import RunDamagedError
 from bowlrec.paper import paper_scene
 from bowlrec.pins.engine import BallEntry, PinAction

@@ -133,6 +133,10 @@ def test_every_example_scene_and_table_iii_case_stays_valid() -> None:
         data = read_mapping(path)
         if isinstance(data, dict) and data.get("format") == "bowlrec-session":
             load_session(path)
+        elif isinstance(data, dict) and data.get("format") == "bowlrec-carry":
+            from bowlrec.pins.carry_job import load_carry_job
+
+            load_carry_job(path)
         elif isinstance(data, dict) and data.get("format") != "bowlrec-job":
             parse_scene(data)
     for case in range(1, len(TABLE_III) + 1):

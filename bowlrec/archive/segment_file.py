@@ -24,11 +24,12 @@ from numpy.typing import NDArray
 from bowlrec.atomic_files import atomic_path
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunDamagedError, SegmentError
+from bowlrec.pins.records import PIN_MEANINGS, pin_engine, pin_outcome_of
 from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
-from .pin_records import PIN_MEANINGS, pin_engine, pin_index_columns, pin_outcome_of
+from .pin_records import pin_index_columns
 from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,

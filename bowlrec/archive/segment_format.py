@@ -20,8 +20,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
+from bowlrec.pins.records import PIN_GROUPS
 
-from .pin_records import PIN_GROUPS, PINS_FORMAT_VERSION
+from .pin_records import PINS_FORMAT_VERSION
 
 if TYPE_CHECKING:
     from bowlrec.sinks.common import RunData
@@ -124,7 +125,7 @@ class RunRecord:
     #: per-run record groups (format 2.1): group name -> {dataset name: array}, the arrays of a
     #: group with equal first dimensions (the run's rows of that group), e.g. the oil grid after
     #: a session's shot (``bowlrec.session.records``) or the run's pins (format 2.2,
-    #: :mod:`.pin_records`; :meth:`from_run` adds them)
+    #: :mod:`bowlrec.pins.records`; :meth:`from_run` adds them)
     records: dict[str, dict[str, NDArray[Any]]] = field(default_factory=dict)
 
     @classmethod
@@ -182,7 +183,7 @@ def _pin_records(run: RunData) -> dict[str, dict[str, NDArray[Any]]]:
     pins = run.trajectory.pins
     if pins is None:
         return {}
-    from .pin_records import pin_groups
+    from bowlrec.pins.records import pin_groups
 
     return pin_groups(pins, samples=run.scene.options.record != "summary")
 

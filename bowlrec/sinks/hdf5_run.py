@@ -15,7 +15,7 @@ Layout (every dataset has a ``units`` attribute; arrays are chunked, gzip level 
   ``pin_quaternion_wxyz``, ``ball_position_m``, ``ball_quaternion_wxyz``, ``energy_J``; pin p is
   column p - 1, NaN for a pin not set), and the archive's one-row groups without their row axis:
   ``/pins/outcome/*``, ``/pins/action/*``, ``/pins/entry/*``, ``/pins/extras/{name,value}``
-  (:mod:`bowlrec.archive.pin_records`); attribute ``outcome_json`` (``PinOutcome.to_dict()``).
+  (:mod:`bowlrec.pins.records`); attribute ``outcome_json`` (``PinOutcome.to_dict()``).
   The resolved pin model is the ``/resolved`` attribute ``pins_json``. A run without pins is
   written exactly as by format 1.0 and declares 1.0.
 
@@ -148,7 +148,7 @@ def _write_summary(group: h5py.Group, summary: Summary) -> None:
             group.attrs[key] = value
 
 
-#: the archive's pin record groups (bowlrec.archive.pin_records) -> their group in ``/pins``
+#: the archive's pin record groups (bowlrec.pins.records) -> their group in ``/pins``
 #: ("": the per-sample datasets, in ``/pins`` itself)
 _PIN_GROUPS = {
     "pin_outcome": "outcome",
@@ -162,7 +162,7 @@ _PIN_ONE_ROW = ("pin_outcome", "pin_action", "pin_entry")
 
 
 def _write_pins(group: h5py.Group, outcome: PinOutcome) -> None:
-    from bowlrec.archive.pin_records import PIN_MEANINGS, pin_groups
+    from bowlrec.pins.records import PIN_MEANINGS, pin_groups
 
     group.attrs["outcome_json"] = dumps(outcome.to_dict())
     for record, datasets in pin_groups(outcome).items():
@@ -182,7 +182,7 @@ def _write_pins(group: h5py.Group, outcome: PinOutcome) -> None:
 
 
 def _read_pins(group: h5py.Group) -> PinOutcome | None:
-    from bowlrec.archive.pin_records import pin_outcome_of
+    from bowlrec.pins.records import pin_outcome_of
 
     records: dict[str, dict[str, Any]] = {}
     for record, where in _PIN_GROUPS.items():

@@ -10,7 +10,7 @@ A run with pin action (``options.pins``) adds ``pins_json`` (``outcome``: the re
 ``n_steps``, ``wall_time_s``, ``exit_y_m``, ``engine`` and ``extras``; ``entry``: the ball's
 state at the hand-off; null when the ball never reached the pins; NaN written as null) and, when
 the ball reached the pins, their recorded motion as the archive's ``pins/`` group holds it
-(:mod:`bowlrec.archive.pin_records`): ``pins/t_s`` (s after the hand-off), ``pins/pin_position_m``
+(:mod:`bowlrec.pins.records`): ``pins/t_s`` (s after the hand-off), ``pins/pin_position_m``
 (n, 10, 3), ``pins/pin_quaternion_wxyz`` (n, 10, 4; pin p is column p - 1, NaN for a pin not
 set), ``pins/ball_position_m``, ``pins/ball_quaternion_wxyz``, ``pins/energy_J``; lane frame with
 the lane's surface at z = 0. A run without pins is written exactly as before.
@@ -51,7 +51,7 @@ def _plain(value: Any) -> Any:
 
 def pin_arrays(outcome: PinOutcome) -> dict[str, Any]:
     """The ``.npz`` entries of a run's pins: ``pins_json`` and the ``pins/...`` arrays."""
-    from bowlrec.archive.pin_records import pin_groups
+    from bowlrec.pins.records import pin_groups
 
     action, entry = outcome.action, outcome.entry
     values = {
