@@ -52,7 +52,10 @@ def carry(
     workers: Annotated[
         int | None,
         typer.Option(
-            "--workers", "-j", min=0, help="Local worker processes (default: all cores; 0: here)."
+            "--workers",
+            "-j",
+            min=0,
+            help="Local worker processes (default: all cores; 0 or 1: in this process).",
         ),
     ] = None,
     out: Annotated[
@@ -93,7 +96,8 @@ def carry(
                     advance(None)
             done[0] = finished
 
-        return carry_map(grid, spec.pin_plan(), workers=workers, progress=progress)
+        count = None if workers is None else max(1, workers)
+        return carry_map(grid, spec.pin_plan(), workers=count, progress=progress)
 
     cmap = with_progress(quiet, f"{spec.name}: {grid.size:,} deliveries", grid.size, run)
     cells = [c.to_dict() for c in cmap.cells]
