@@ -16,11 +16,12 @@ from ._base import SpecModel, fmt, spec_error
 
 __all__ = ["DEFAULT_PIN_CONTACTS", "PinOptions"]
 
-#: the pin model's contact parameters: (restitution, friction) per pair of surfaces
+#: the pin model's contact parameters: (restitution, friction) per pair of surfaces; fitted
+#: (pin-pin, ball-pin friction, pin-deck friction) in bowlrec/pins/data/pin_contacts_fit.json
 DEFAULT_PIN_CONTACTS: dict[str, tuple[float, float]] = {
-    "ball_pin": (0.578, 0.085),
-    "pin_pin": (0.743, 0.124),
-    "pin_deck": (0.083, 0.071),
+    "ball_pin": (0.578, 0.1),
+    "pin_pin": (0.6, 0.06),
+    "pin_deck": (0.083, 0.15),
     "pin_kickback": (0.5, 0.2),
 }
 _E_RANGE = (0.001, 0.95)
