@@ -32,7 +32,7 @@ def main() -> None:
         case_scene,
         pattern_length_ft,
     )
-    from bowlrec.bowling.friction_levels import calibrated
+    from bowlrec.bowling.oil_friction import OilFrictionMapping
     from bowlrec.bowling.pocket import POCKET
     from bowlrec.bowling.shot_carry import shot_carry
     from bowlrec.bowling.variance import PRESETS
@@ -44,7 +44,7 @@ def main() -> None:
     rows = []
     t0 = time.perf_counter()
     for style in STYLES:
-        scene = case_scene(Case(style, PATTERN), calibrated())
+        scene = case_scene(Case(style, PATTERN), OilFrictionMapping())  # the calibrated mapping
         length = pattern_length_ft(scene.pattern_model())
         found = aim(
             scene, ("laydown", "launch"), POCKET, breakpoint_board=breakpoint_board_for(length)
@@ -65,7 +65,8 @@ def main() -> None:
         f"{args.workers} worker processes on a shared 2-core machine, {out['seconds']:.0f} s "
         "in all.",
         "",
-        "| type | scatter | in the pocket | strikes | carry of pocket hits | most frequent leaves |",
+        "| type | scatter | in the pocket | strikes | carry of pocket hits "
+        "| most frequent leaves |",
         "|---|---|---|---|---|---|",
     ]
     for r in rows:
