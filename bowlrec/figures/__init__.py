@@ -20,6 +20,7 @@ module            pictures
 ``ball``          a bowler's ball and its layout (the grip, the PAP, the pin and the PSA)
 ``sweep``         a job's metric against a swept parameter
 ``variance``      release scatter at the pins, and the tolerance map of a shot
+``carry``         a carry map: strike percentage over entry board x entry angle
 ================  =====================================================================
 
 This package imports nothing until a module is imported; the modules import matplotlib.
