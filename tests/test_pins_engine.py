@@ -302,14 +302,19 @@ def test_same_shot_same_pinfall_bit_for_bit(defaults: object) -> None:
 
 
 def test_energy_never_grows_through_a_full_rack(defaults: object) -> None:
-    """Kinetic plus potential energy of the bodies in play only falls, but for what a soft
-    contact holds in its spring while it is pressed (counted in neither) and gives back:
-    never more than 0.1 % of the ball's energy above any earlier sample."""
-    a = _run(PinEntry(board=17.5, angle_deg=5.0), defaults)
-    energy = a.energy_J  # type: ignore[attr-defined]
-    regain = energy - np.minimum.accumulate(energy)
-    assert regain.max() <= 1e-3 * energy[0]
-    assert energy[-1] < 0.5 * energy[0]
+    """Kinetic plus potential energy of the bodies in play never exceeds the ball's at the
+    hand-off and ends far below it. Between samples it may come back up by what a soft contact
+    holds in its spring while pressed (counted in neither) and gives back: samples every 5 ms
+    fall inside ball-pin and pin-pin contacts, and up to 2 % of the ball's energy sits in them
+    then (measured: 0.6-2.0 % on three racks at two time steps). The head-on tests check that
+    a single impact loses energy, exactly."""
+    for seed in (None, 3):
+        a = _run(PinEntry(board=17.5, angle_deg=5.0), defaults, seed=seed)
+        energy = a.energy_J  # type: ignore[attr-defined]
+        assert energy.max() <= energy[0] * (1 + 1e-9)
+        regain = energy - np.minimum.accumulate(energy)
+        assert regain.max() <= 0.03 * energy[0]
+        assert energy[-1] < 0.5 * energy[0]
 
 
 def test_a_flush_pocket_hit_strikes_for_both_hands(defaults: object) -> None:
