@@ -204,11 +204,11 @@ def test_the_runs_table_filters_sorts_and_pages(web: tuple[Any, Watch, Server]) 
     # sorting by a column: descending, then ascending
     page.click("#runs-table thead a:has-text('speed (m/s)')")
     page.wait_for_url(re.compile(r"sort=-speed_mps"))
-    speeds = [float(t) for t in page.locator("#runs-table tbody td:nth-child(8)").all_inner_texts()]
+    speeds = [float(t) for t in page.locator("#runs-table tbody td:nth-child(9)").all_inner_texts()]
     assert speeds == sorted(speeds, reverse=True) == [8.5, 8.0, 7.5]
     page.click("#runs-table thead a:has-text('speed (m/s)')")
     page.wait_for_url(re.compile(r"sort=speed_mps"))
-    speeds = [float(t) for t in page.locator("#runs-table tbody td:nth-child(8)").all_inner_texts()]
+    speeds = [float(t) for t in page.locator("#runs-table tbody td:nth-child(9)").all_inner_texts()]
     assert speeds == [7.5, 8.0, 8.5]
 
 
