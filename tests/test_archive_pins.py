@@ -22,11 +22,11 @@ import pytest
 from typer.testing import CliRunner
 
 from bowlrec.archive import Archive, SegmentFile
-from bowlrec.pins.records import PIN_GROUPS, pin_groups, pin_outcome_of
 from bowlrec.errors import RunDamagedError
 from bowlrec.paper import paper_scene
 from bowlrec.pins.engine import BallEntry, PinAction
 from bowlrec.pins.outcome import PinOutcome, standing_offsets_m
+from bowlrec.pins.records import PIN_GROUPS, pin_groups, pin_outcome_of
 from bowlrec.sinks import RunData
 from bowlrec.spec import Scene
 

@@ -22,8 +22,8 @@ import pytest
 
 import bowlrec.pins  # noqa: F401  (MUJOCO_GL=disable before MuJoCo loads)
 from bowlrec.archive import Archive
-from bowlrec.pins.records import pin_groups
 from bowlrec.pins.outcome import PinOutcome
+from bowlrec.pins.records import pin_groups
 from bowlrec.sinks import RunData
 from bowlrec.sinks.hdf5_run import (
     FORMAT_VERSION,
