@@ -11,7 +11,7 @@ from typing import Any
 
 from bowlrec.versions import BOWLER_LAYER_VERSION, PHYSICS_VERSION, __version__
 
-__all__ = ["bowler_layer_warning", "environment"]
+__all__ = ["bowler_layer_warning", "environment", "physics_version_warning"]
 
 
 def _version(module: str) -> str:
@@ -72,4 +72,17 @@ def bowler_layer_warning(provenance: dict[str, Any]) -> str | None:
         f"made with bowler layer {made_with or '1'} (current: {BOWLER_LAYER_VERSION}): if this "
         f"run came from a bowler scene, {'; '.join(changes)}; the physics of the stored scene "
         "is unaffected"
+    )
+
+
+def physics_version_warning(provenance: dict[str, Any]) -> str | None:
+    """A note for a run made by another physics version than this one (its run ID is that
+    version's: simulating its scene now gives a new run ID and results that differ within the
+    old version's tolerance, CHANGELOG.md "Physics versions"), else None."""
+    made_with = provenance.get("physics_version")
+    if made_with is None or made_with == PHYSICS_VERSION:
+        return None
+    return (
+        f"made with physics {made_with} (current: {PHYSICS_VERSION}): simulating this scene "
+        "again gives a new run ID and may differ from it within the tolerance"
     )

@@ -488,18 +488,21 @@ def test_record_groups_are_checked_when_written(tmp_path: Path, template_run: Ru
         assert seg.provenance["format_version"] == "2.0"
 
 
-def test_committed_v2_1_fixture_archive_reads_and_resumes(tmp_path: Path) -> None:
+def test_committed_v2_1_fixture_archive_reads_flags_and_resumes(tmp_path: Path) -> None:
     """tests/fixtures/archive-v2.1 holds two shots of a session written by format 2.1
-    (tests/fixtures/make_fixture_v21.py): each run's oil grid and session state read back, and
-    playing the session again reads both shots from the archive instead of simulating them.
-    If this fails, the on-disk format or a session shot's run ID changed: see
+    (tests/fixtures/make_fixture_v21.py) with physics frohlich2004-dp54-3: each run's oil grid
+    and session state read back and the runs are flagged as an older physics version's; playing
+    the session again simulates the same shots under today's physics (new run IDs) beside them,
+    and a third play reads those from the archive. See
     test_committed_v2_fixture_archive_still_reads."""
     import json
     import shutil
 
+    from bowlrec.provenance import physics_version_warning
     from bowlrec.session.records import oil_from_records, state_from_records
     from bowlrec.session.runner import run_session
     from bowlrec.session.spec import parse_session
+    from bowlrec.testing.shots import assert_same_shots
 
     expected = json.loads((HERE / "fixtures" / "archive-v2.1.json").read_text())
     copy = shutil.copytree(HERE / "fixtures" / "archive-v2.1", tmp_path / "archive")
@@ -512,16 +515,39 @@ def test_committed_v2_1_fixture_archive_reads_and_resumes(tmp_path: Path) -> Non
         assert oil_from_records(stored.records["oil"]).volume_ul.sum() == pytest.approx(
             shot["lane_oil_ul"], rel=1e-12
         )
-    # the session was stored by the pocket-window rule: said explicitly, it keeps its ID
+    # the session was stored by the pocket-window rule: said explicitly, it keeps its ID; its
+    # runs were made by an older physics version, so playing it again simulates them anew
+    # (new run IDs, the same play) and keeps the stored ones
     session = {**expected["session"], "pins": False}
     result = run_session(parse_session(session), archive, max_shots=2)
-    assert (result.resumed, result.simulated) == (2, 0)
+    assert (result.resumed, result.simulated) == (0, 2)
     rows = [{**r.to_dict(), "simulated": True} for r in result.rows]
-    assert [{k: r[k] for k in shot} for r, shot in zip(rows, expected["shots"], strict=True)] == (
-        expected["shots"]
-    )
+    assert_same_shots(rows, expected["shots"])
+    for shot in expected["shots"]:
+        assert physics_version_warning(dict(archive.load(shot["run_id"]).attrs)) is not None
+    _older_runs_are_marked(copy, [s["run_id"] for s in expected["shots"]])
+    again = run_session(parse_session(session), archive, max_shots=2)
+    assert (again.resumed, again.simulated) == (2, 0)
     assert all(r["pinfall"] is None and r["score"] is None for r in rows)
-    assert float(result.final.volume_ul.sum()) == expected["final_oil_ul"]
+    assert float(result.final.volume_ul.sum()) == pytest.approx(expected["final_oil_ul"], rel=1e-9)
+
+
+def _older_runs_are_marked(root: Path, older: list[str]) -> None:
+    """`runs list` marks runs of an older physics version with `*` and says so; `runs show`
+    names the version."""
+    from typer.testing import CliRunner
+
+    from bowlrec.cli import app
+
+    listed = CliRunner().invoke(app, ["runs", "list", "-a", str(root)], env={"COLUMNS": "200"})
+    assert listed.exit_code == 0, listed.stderr
+    marked = [line for line in listed.stdout.splitlines() if " * " in line]
+    assert {rid[:10] for rid in older} <= {line.split()[1] for line in marked}
+    assert "made with an older physics version" in listed.stderr
+    shown = CliRunner().invoke(app, ["runs", "show", older[0], "-a", str(root), "--json"])
+    assert shown.exit_code == 0, shown.stderr
+    warnings = json.loads(shown.stdout)["warnings"]
+    assert any("frohlich2004-dp54-3" in w and "current" in w for w in warnings)
 
 
 def test_bowler_preset_runs_are_indexed_by_their_pattern(tmp_path: Path) -> None:

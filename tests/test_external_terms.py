@@ -299,13 +299,13 @@ def test_off_means_nothing_new() -> None:
 
 
 def _fingerprint_variant() -> tuple[dict[str, Any], bool]:
-    """The committed fingerprint of commit 86ab6d9 recorded on this platform (True), or else
+    """The committed fingerprint of this physics version recorded on this platform (True), or else
     the first recorded one (False): see ``tools/kernel_fingerprint.py`` on what the bits of a
     result depend on besides the code."""
     from tools.kernel_fingerprint import platform
 
     fixture = json.loads(
-        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
+        (Path(__file__).parent / "fixtures" / "kernel-fingerprint.json").read_text()
     )
     here = platform()
     for variant in fixture["variants"]:
@@ -316,14 +316,16 @@ def _fingerprint_variant() -> tuple[dict[str, Any], bool]:
 
 def test_default_run_ids_unchanged() -> None:
     """Run IDs of scenes without the new fields, as computed before they existed (commit
-    86ab6d9); and the canonical Plan has none of the new fields. A random delivery's plan goes
+    86ab6d9, physics frohlich2004-dp54-3: the same canonical plan under that version gives the
+    same ID); and the canonical Plan has none of the new fields. A random delivery's plan goes
     through OpenBLAS (its frame is normalised with BLAS), so its ID is checked against the
     value recorded on this platform."""
     from bowlrec.paper import paper_scene
     from bowlrec.testing import random_plans
 
-    assert run_id(Scene().resolve()) == "6869b428ad6d059d14e5"
-    assert run_id(paper_scene(5).resolve()) == "e8833d95b85cd5d2acd8"
+    older = "frohlich2004-dp54-3"
+    assert run_id(Scene().resolve(), physics_version=older) == "6869b428ad6d059d14e5"
+    assert run_id(paper_scene(5).resolve(), physics_version=older) == "e8833d95b85cd5d2acd8"
     variant, exact = _fingerprint_variant()
     if exact:
         assert run_id(random_plans(1)[0][1]) == variant["random_run_id"]
@@ -466,8 +468,9 @@ def _close(got: dict[str, Any], want: dict[str, Any]) -> bool:
 def test_default_scenes_are_bit_identical_to_the_tree_without_the_terms() -> None:
     """Summaries (every metric, exact), right-hand-side counts and sample digests of the Table
     III cases, the bowler examples, the default scene and 20 random offset balls, in four record
-    modes, equal those of commit 86ab6d9 (``tests/fixtures/kernel-fingerprint-86ab6d9.json``,
-    extracted from ``tools/kernel_fingerprint.py`` run on that tree) recorded on this platform.
+    modes, equal those recorded for this physics version
+    (``tests/fixtures/kernel-fingerprint.json``, extracted from ``tools/kernel_fingerprint.py``;
+    the optional terms off) on this platform.
     On a platform with no recording, summaries are compared within rounding (:func:`_close`)
     and digests not at all, with a warning. A deliberate change of the default physics fails
     here: rewrite the fixture then (``tools/kernel_fingerprint.py --subset --replace``), with a
@@ -507,13 +510,13 @@ def test_default_scenes_are_bit_identical_to_the_tree_without_the_terms() -> Non
 
 
 def test_every_platforms_recording_agrees_within_rounding() -> None:
-    """The recordings of commit 86ab6d9 on other platforms agree with this platform's results
+    """The fixture's recordings on other platforms agree with this platform's results
     within rounding (:func:`_close`), every count exact; and :func:`_close` refuses a count or
     a metric that moved."""
     from tools.kernel_fingerprint import _summary, deliveries, platform
 
     fixture = json.loads(
-        (Path(__file__).parent / "fixtures" / "kernel-fingerprint-86ab6d9.json").read_text()
+        (Path(__file__).parent / "fixtures" / "kernel-fingerprint.json").read_text()
     )
     plans = dict(deliveries())
     here = platform()

@@ -161,3 +161,26 @@ def test_stick_slip_cases_agree_with_a_tight_reference_at_loose_tolerance(case: 
     assert loose.hook_m == pytest.approx(ref.hook_m, abs=1e-4)
     assert loose.pocket_deg == pytest.approx(ref.pocket_deg, abs=1e-3)
     assert loose.slide_m == pytest.approx(ref.slide_m, abs=1e-3)
+
+
+def test_the_slips_error_control_holds_every_slide_end_of_the_benchmark() -> None:
+    """With the slip in the error norm (``dopri5.error_norm``) the slide -> roll point of the
+    218 work-precision deliveries (those that roll in both runs) is within the benchmark's 1 mm
+    of a rtol 1e-12 reference at rtol 2e-5, and within 20 mm at rtol 2e-4. Controlled only
+    through v and w, the slip's error is ~10 rtol m/s and random002 (the slip lingers at mm/s
+    before it vanishes, then the ball rolls for 2 ms) misses its first zero by 0.56 m at both
+    tolerances."""
+    from bowlrec.testing.scenes import table3_plans
+
+    plans = [p for _, p in table3_plans()] + list(PLANS.values())
+    worst = {2e-5: 0.0, 2e-4: 0.0}
+    for plan in plans:
+        ref = solve(replace(plan, rtol=1e-12, slip_layer_mps=1e-8)).summary.slide_m
+        for rtol in worst:
+            got = solve(replace(plan, rtol=rtol, record_mode=RECORD_SUMMARY)).summary.slide_m
+            # (a ball that starts to roll within a step of the pins may roll in one run only)
+            assert rtol != 2e-5 or (got is None) == (ref is None)
+            if got is not None and ref is not None:
+                worst[rtol] = max(worst[rtol], abs(got - ref))
+    assert worst[2e-5] <= 1e-3
+    assert worst[2e-4] <= 2e-2

@@ -180,9 +180,22 @@ def list_runs(
     for header, column, _scale, _fmt in columns:
         left = column in ("name", "ball", "pattern", "outcome", "leave", "created_at", "run_id")
         table.add_column(header, justify="left" if left else "right")
+    from bowlrec.versions import PHYSICS_VERSION
+
+    older = 0
     for row in rows:
-        table.add_row(*(_cell(row, c, scale, fmt) for _h, c, scale, fmt in columns))
+        cells = [_cell(row, c, scale, fmt) for _h, c, scale, fmt in columns]
+        if row.get("physics_version") not in (None, PHYSICS_VERSION):
+            older += 1
+            cells[0] += " *"
+        table.add_row(*cells)
     print_table(table)
+    if older:
+        typer.echo(
+            f"* {older} run(s) made with an older physics version than {PHYSICS_VERSION}: "
+            "`runs show ID` says which; simulating their scenes again gives new run IDs",
+            err=True,
+        )
 
 
 @runs_app.command("show")
@@ -198,15 +211,17 @@ def show(
         row = store.row(stored.run_id)
     events = [e.__dict__ for e in stored.trajectory.events]
     provenance = {k: v for k, v in stored.attrs.items() if k not in ("scene_json", "summary_json")}
-    from bowlrec.provenance import bowler_layer_warning
+    from bowlrec.provenance import bowler_layer_warning, physics_version_warning
 
-    warning = bowler_layer_warning(provenance)
+    warnings = [
+        w for w in (physics_version_warning(provenance), bowler_layer_warning(provenance)) if w
+    ]
     pins = stored.trajectory.pins
     if as_json:
         doc = {
             "index": row,
             "provenance": provenance,
-            "warnings": [] if warning is None else [warning],
+            "warnings": warnings,
             "summary": stored.trajectory.summary.to_dict(),
             "pins": None if pins is None else pins.to_dict(),
             "events": events,
@@ -225,7 +240,7 @@ def show(
     table.add_row("samples", str(stored.trajectory.n_samples))
     if pins is not None:
         table.add_row("pins", pins.line())
-    if warning is not None:
+    for warning in warnings:
         table.add_row("warning", warning)
     print_table(table)
     typer.echo("scene (as given):")

@@ -57,6 +57,10 @@ N_STAGES = 7
 RHS_PER_STEP = 6
 
 
+#: the slip's error scale is rtol * (SLIP_SCALE_MPS + |s|) (m/s): see :func:`error_norm`
+SLIP_SCALE_MPS = 0.03
+
+
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def stages(y, h, ws, law, run):  # type: ignore[no-untyped-def]
     """Stages 2..7 of one step of size h (s) from y with ``ws.K[0]`` = f(y); the 5th-order
@@ -118,11 +122,20 @@ def _embedded_error(K, h, i):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
-def error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
+def error_norm(y, ynew, K, h, rtol, q_weight, slip_r):  # type: ignore[no-untyped-def]
     """RMS of the embedded error estimate scaled by rtol * (1 + |y|) per component.
 
     The quaternion's error counts with the weight ``q_weight`` (0 drops it): see
-    ``arguments.orientation_weight``. (Three loops in component order, so the sum is the same.)"""
+    ``arguments.orientation_weight``. (Three loops in component order, so the sum is the same.)
+
+    ``slip_r`` > 0 (the ball's radius, m, while the ball slides) adds the slip
+    s = (R w_y - v_x, -R w_x - v_y) as two components of their own, scaled by
+    rtol * (SLIP_SCALE_MPS + |s|). The slip is the small difference of v and R w (both several
+    m/s): controlled only through them, its absolute error is ~10 rtol m/s, and where rolling is
+    marginal (the slip lingers at a few mm/s before it vanishes) that error moves the slide ->
+    roll point by decimetres. Over the work-precision benchmark's 218 deliveries the worst slide
+    error at rtol 3e-5 goes from 561 mm to 1.4 mm with it (benchmarks/results/work_precision.md).
+    ``slip_r`` = 0 (rolling: the slip is zero by construction) leaves the term out."""
     acc = 0.0
     for i in range(S_QW):
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
@@ -136,6 +149,17 @@ def error_norm(y, ynew, K, h, rtol, q_weight):  # type: ignore[no-untyped-def]
     for i in range(S_WX, N_STATE):
         sc = rtol * (1.0 + max(abs(y[i]), abs(ynew[i])))
         acc += (_embedded_error(K, h, i) / sc) ** 2
+    if slip_r > 0.0:
+        ex = slip_r * _embedded_error(K, h, S_WX + 1) - _embedded_error(K, h, 2)
+        ey = -slip_r * _embedded_error(K, h, S_WX) - _embedded_error(K, h, 3)
+        s0x = slip_r * y[S_WX + 1] - y[2]
+        s0y = -slip_r * y[S_WX] - y[3]
+        s1x = slip_r * ynew[S_WX + 1] - ynew[2]
+        s1y = -slip_r * ynew[S_WX] - ynew[3]
+        s_big = max(math.sqrt(s0x * s0x + s0y * s0y), math.sqrt(s1x * s1x + s1y * s1y))
+        sc = rtol * (SLIP_SCALE_MPS + s_big)
+        acc += (ex / sc) ** 2 + (ey / sc) ** 2
+        cnt += 2
     return math.sqrt(acc / cnt)
 
 

@@ -2,7 +2,10 @@
 
 Method: Dormand-Prince 5(4) (FSAL, Hairer's step-size control with a PI factor; no growth right
 after a rejected step, and a steeper cut when consecutive rejections show the error falling
-slower than h^5) and its 4th-order continuous extension for dense output. Events are located on
+slower than h^5) and its 4th-order continuous extension for dense output. While the ball slides,
+the error norm counts the slip too, scaled by rtol * (0.03 m/s + |s|) (``dopri5.error_norm``):
+where the slip decides the slide -> roll point its absolute error is held near the tolerance
+instead of ~10 rtol m/s. Events are located on
 the dense output by safeguarded regula falsi (Illinois) to ~1e-15 relative in time; the state at
 the event is the dense output there (its error is of the order of the step's own, as in the
 root finding of SUNDIALS or DifferentialEquations.jl), and the integration restarts at every
@@ -37,7 +40,8 @@ every small slip reaches zero in finite time, and friction acts along the direct
 it shrink straight to zero (``dynamics.radial_direction``); otherwise (the slip restarts from
 rolling) along the slaved direction (the unit u with ds/dt(u) parallel to +u, the |s| -> 0 limit
 of the exact dynamics). While sliding, a step is cut to end about where the linearly
-extrapolated slip reaches s_layer / 4, so steps do not jump across |s| = 0, where the Coulomb
+extrapolated slip reaches the larger of s_layer / 4 and 0.3 of the slip at its start
+(``step_control.AIM_FRACTION``), so steps do not jump across |s| = 0, where the Coulomb
 direction is singular (a curved approach could pass beside the root unseen). The error this
 introduces vanishes with s_layer; ``arguments.slip_layer`` ties it to the tolerance (1e-5 m/s at
 rtol 1e-9, where against s_layer = 1e-8 m/s it moves hook, pocket and slide of cases 5 and 18 by
@@ -105,7 +109,7 @@ from .dopri5 import (
     error_norm,
     stages,
 )
-from .dynamics import P_G, P_QWEIGHT, P_SLAYER, rhs, slaved_direction, slip
+from .dynamics import P_G, P_QWEIGHT, P_R, P_SLAYER, rhs, slaved_direction, slip
 from .events import (
     G_CONTACT,
     G_GUTTER_LEFT,
@@ -221,7 +225,8 @@ def advance(y, clock, law, run, ws, watch):  # type: ignore[no-untyped-def]
         law = FrictionLaw(phase, law.mu, ux, uy)
         st = stages(y, h, ws, law, run)
         nfev += RHS_PER_STEP
-        err = error_norm(y, ynew, K, h, run.rtol, par[P_QWEIGHT])
+        slip_r = par[P_R] if phase != PHASE_ROLL else 0.0
+        err = error_norm(y, ynew, K, h, run.rtol, par[P_QWEIGHT], slip_r)
         if not (err <= 1.0):
             hn = after_reject(h, err, nrej, err_rej, h_rej)
             err_rej = err

@@ -14,11 +14,18 @@ import math
 
 from numba import njit
 
-from .codes import N_STATE, PHASE_LAYER, PHASE_SLIDE, S_QW, S_WX
+from .codes import N_STATE, PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, S_QW, S_WX
+from .dopri5 import SLIP_SCALE_MPS
 from .dynamics import P_QWEIGHT, rhs, slip
 from .vec import NO_NRT
 
 H_MAX = 0.1  #: largest step (s)
+#: a sliding step is aimed to leave at least this fraction of the slip (or s_layer / 4): a step
+#: that plans to take the slip most of the way to zero is mostly rejected, since the slip's
+#: direction turns faster the smaller it gets. Over the 2,218 deliveries of
+#: benchmarks/speed_limit.py at rtol 2e-4: 0.3 takes 6 % fewer right-hand sides than 0 (0.15:
+#: 4 %, 0.5: 3 %), every worst error unchanged.
+AIM_FRACTION = 0.3
 LOG_1E_4 = math.log(1e-4)  #: the PI controller's floor of the previous error (log)
 
 
@@ -26,8 +33,8 @@ LOG_1E_4 = math.log(1e-4)  #: the PI controller's floor of the previous error (l
 def initial_step(y, ws, law, run):  # type: ignore[no-untyped-def]
     """Starting step size (s) for y with ``ws.K[0]`` = f(y): Hairer's estimate (DOPRI5's
     ``hinit``), from |f| and a finite-difference second derivative (one extra right-hand side),
-    in the same weighted norm as the error control, so that the first step's error is ~ the
-    tolerance."""
+    in the same weighted norm as the error control (with the slip while sliding, as
+    ``dopri5.error_norm`` counts it), so that the first step's error is ~ the tolerance."""
     K = ws.K
     ytmp = ws.ytmp
     dtmp = ws.dtmp
@@ -41,6 +48,14 @@ def initial_step(y, ws, law, run):  # type: ignore[no-untyped-def]
         sc = rtol * (1.0 + abs(y[i]))
         dny += (w * y[i] / sc) ** 2
         dnf += (w * K[0, i] / sc) ** 2
+    sliding = law.phase != PHASE_ROLL
+    if sliding:
+        # the slip as the error norm counts it (dopri5.error_norm)
+        sx, sy = slip(y, par)
+        sc_s = rtol * (SLIP_SCALE_MPS + math.sqrt(sx * sx + sy * sy))
+        dsx, dsy = slip(K[0], par)
+        dny += (sx * sx + sy * sy) / sc_s**2
+        dnf += (dsx * dsx + dsy * dsy) / sc_s**2
     h = 0.01 * math.sqrt(dny / dnf) if dnf > 1e-10 and dny > 1e-10 else 1e-6
     h = min(h, H_MAX)
     for i in range(N_STATE):
@@ -51,6 +66,9 @@ def initial_step(y, ws, law, run):  # type: ignore[no-untyped-def]
         w = qw if S_QW <= i < S_WX else 1.0
         sc = rtol * (1.0 + abs(y[i]))
         der2 += (w * (dtmp[i] - K[0, i]) / sc) ** 2
+    if sliding:
+        d1x, d1y = slip(dtmp, par)
+        der2 += ((d1x - dsx) ** 2 + (d1y - dsy) ** 2) / sc_s**2
     der12 = max(math.sqrt(der2) / h, math.sqrt(dnf))
     h1 = (0.01 / der12) ** 0.2 if der12 > 1e-15 else max(1e-6, h * 1e-3)
     return max(1e-6, min(100.0 * h, h1, H_MAX))
@@ -98,8 +116,9 @@ def aim_at_slip_layer(y, K, h, law, run):  # type: ignore[no-untyped-def]
     """The step (s) and reference direction (ux, uy) for the next try from y (``K[0]`` = f(y)).
 
     Sliding: the direction is that of the slip now, and the step ends about where the linearly
-    extrapolated slip reaches s_layer / 4: near |s| = 0 the Coulomb direction is singular, and a
-    step whose stages land there can miss the root (a curved approach passes beside zero).
+    extrapolated slip reaches s_layer / 4 (or AIM_FRACTION of the slip now): near |s| = 0 the
+    Coulomb direction is singular, and a step whose stages land there can miss the root (a
+    curved approach passes beside zero).
     Inside the layer the slip runs straight to zero (``radial_direction``) and the root is an
     ordinary sign change; the direction follows the slip while it is not tiny."""
     ux = law.ux
@@ -114,7 +133,7 @@ def aim_at_slip_layer(y, K, h, law, run):  # type: ignore[no-untyped-def]
             dsx, dsy = slip(K[0], run.par)  # ds/dt: slip() is linear in the state
             decay = -(ux * dsx + uy * dsy)
             if decay > 0.0 and s0 > 0.5 * s_layer:
-                h_layer = (s0 - 0.25 * s_layer) / decay
+                h_layer = (s0 - max(0.25 * s_layer, AIM_FRACTION * s0)) / decay
                 if h > h_layer:
                     h = h_layer
     elif law.phase == PHASE_LAYER:
