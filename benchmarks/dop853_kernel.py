@@ -556,11 +556,9 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
             hh = t_end - t_old
             for j in range(1, N_SCAN):
                 tb = t_old + hh * j / N_SCAN
-                m = _scan_value(0, tb, t_old, h_dense, y_old, F, ytmp, dy, par, phase, mu, uxr,
-                                uyr, orient, cnt, margin_tol)  # fmt: skip
-                nn = _scan_value(1, tb, t_old, h_dense, y_old, F, ytmp, dy, par, phase, mu, uxr,
-                                 uyr, orient, cnt, margin_tol)  # fmt: skip
-                cnt[C_RHS] -= 1  # one evaluation gives both
+                _dense_eval(tb, t_old, h_dense, y_old, F, ytmp)
+                nn, m, _, _ = _f(tb, ytmp, par, phase, mu, uxr, uyr, orient, dy, cnt)
+                m += margin_tol
                 if m < 0.0 or nn <= 0.0:
                     which = 0 if m < 0.0 else 1
                     lo = t_old + hh * (j - 1) / N_SCAN
