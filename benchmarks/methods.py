@@ -12,6 +12,11 @@ plus method-specific bookkeeping (``n_segments``/``n_steps``/``n_events``).
 * :func:`scipy_solve`: ``scipy.integrate.solve_ivp`` (RK45, DOP853, LSODA) on bowlrec's compiled
   right-hand side ``rhs``, segment by segment with terminal events (slip zero, friction-cell
   boundaries, pins, gutters, vx = 0, normal force 0, friction reserve of the rolling ball).
+* :func:`dop853_compiled`: the same DOP853 run as ``scipy_solve(plan, "DOP853")`` compiled into
+  one numba kernel (:mod:`benchmarks.dop853_kernel`: scipy's tableau, error norm, step control,
+  dense output and ``solve_ivp``'s event location, with the same right-hand side, segments and
+  events; no Python per right-hand side). ``run_method("DOP853-compiled", plan, rtol)`` times it
+  as the median of ``REPEATS`` kernel calls after a warm-up call (compile / cache load excluded).
 * :func:`paper_scheme`: the paper's scheme, fixed-step classical RK4 with the 1 cm/s
   slide -> roll rule, as a numba kernel on the same ``rhs`` (:mod:`bowlrec.testing.rk4`, with
   the common result dict and the slip-zeroing impulse that ``scipy_solve`` shares).
@@ -28,6 +33,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import statistics
 import time
 from typing import Any
 
@@ -43,7 +49,15 @@ from bowlrec.testing.rk4 import remove_slip_impulse as _remove_slip_impulse
 from bowlrec.testing.rk4 import result_dict as _result
 from bowlrec.testing.rk4 import summary_plan as _summary_plan
 
-__all__ = ["METHODS", "bowlrec_solve", "paper_scheme", "run_method", "scipy_solve"]
+__all__ = [
+    "METHODS",
+    "REPEATS",
+    "bowlrec_solve",
+    "dop853_compiled",
+    "paper_scheme",
+    "run_method",
+    "scipy_solve",
+]
 
 
 # --------------------------------------------------------------------------------------------
@@ -444,6 +458,47 @@ def scipy_solve(
 
 
 # --------------------------------------------------------------------------------------------
+# scipy's DOP853 compiled
+# --------------------------------------------------------------------------------------------
+
+
+def dop853_compiled(
+    plan: Plan,
+    rtol: float = 1e-9,
+    atol: float | None = None,
+    *,
+    s_layer: float | None = None,
+    snap: str = "impulse",
+    max_segments: int = 10_000,
+) -> dict[str, Any]:
+    """``scipy_solve(plan, "DOP853", rtol, atol)`` compiled (:mod:`benchmarks.dop853_kernel`):
+    the same method, right-hand side, segments and events; atol None -> 0.1 rtol. The result
+    dict adds n_steps (accepted), n_rejected, n_segments, n_events and ``events`` (event name ->
+    how many segments it ended)."""
+    from .dop853_kernel import solve_dop853
+
+    return solve_dop853(plan, rtol, atol, s_layer=s_layer, snap=snap, max_segments=max_segments)
+
+
+def _time_dop853_compiled(plan: Plan, tol: float, repeats: int) -> dict[str, Any]:
+    """Run the compiled DOP853 once (this call compiles or loads the kernel) and time
+    ``repeats`` further kernel calls on arguments prepared beforehand: ``wall_s`` is their
+    median, ``wall_repeats_s`` all of them."""
+    from .dop853_kernel import _kernel, kernel_args, result
+
+    p, args = kernel_args(plan, tol, 0.1 * tol)
+    out = result(p, _kernel(*args))
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        _kernel(*args)
+        times.append(time.perf_counter() - t0)
+    out["wall_s"] = statistics.median(times)
+    out["wall_repeats_s"] = times
+    return out
+
+
+# --------------------------------------------------------------------------------------------
 # uniform entry point
 # --------------------------------------------------------------------------------------------
 
@@ -455,13 +510,36 @@ METHODS = {
     "RK45": lambda plan, tol: scipy_solve(plan, "RK45", tol, 0.1 * tol),
     "DOP853": lambda plan, tol: scipy_solve(plan, "DOP853", tol, 0.1 * tol),
     "LSODA": lambda plan, tol: scipy_solve(plan, "LSODA", tol, 0.1 * tol),
+    "DOP853-compiled": lambda plan, tol: dop853_compiled(plan, tol, 0.1 * tol),
     "paper": lambda plan, tol: paper_scheme(plan, tol),
 }
 
 
-def run_method(name: str, plan: Plan, tol: float) -> dict[str, Any]:
-    """Run one method and add its wall-clock time (``wall_s``)."""
-    t0 = time.perf_counter()
-    out = METHODS[name](plan, tol)
-    out["wall_s"] = time.perf_counter() - t0
+#: default number of timed runs per delivery in :func:`run_method` (the median is reported)
+REPEATS = {"DOP853-compiled": 5}
+
+
+def run_method(name: str, plan: Plan, tol: float, repeats: int | None = None) -> dict[str, Any]:
+    """Run one method and add its wall-clock time ``wall_s`` (s per delivery).
+
+    ``repeats`` (default ``REPEATS.get(name, 1)``) > 1: ``wall_s`` is the median of that many
+    runs, all of them in ``wall_repeats_s``. "DOP853-compiled" is run once untimed first (numba
+    compiles or loads its kernel then) and its repeats time the kernel call alone, on arguments
+    prepared beforehand (as the work-precision benchmark times bowlrec's kernel); the other
+    methods time the whole call, Python included.
+    """
+    n = REPEATS.get(name, 1) if repeats is None else int(repeats)
+    if n < 1:
+        raise ValueError(f"repeats = {n} must be >= 1")
+    if name == "DOP853-compiled":
+        return _time_dop853_compiled(plan, tol, n)
+    times = []
+    out: dict[str, Any] = {}
+    for _ in range(n):
+        t0 = time.perf_counter()
+        out = METHODS[name](plan, tol)
+        times.append(time.perf_counter() - t0)
+    out["wall_s"] = statistics.median(times)
+    if n > 1:
+        out["wall_repeats_s"] = times
     return out
