@@ -85,8 +85,14 @@ for f in dataclasses.fields(traj):
         if isinstance(a, np.ndarray):
             h.update(f.name.encode() + str(a.shape).encode() + np.ascontiguousarray(a).tobytes())
 import numba
+from numba.np import arraymath
+blas = arraymath._HAVE_BLAS
+scipy_linalg = "scipy.linalg" in sys.modules
 assert numba.njit(lambda x: x + 1)(1) == 2  # compiling still works after a lean load
-print(json.dumps([loaded, type(solver.simulate_kernel._cache).__name__, h.hexdigest()]))
+if blas:  # and numba's own BLAS check runs when a BLAS call is compiled
+    assert numba.njit(lambda a: np.dot(a, a))(np.ones(3)) == 3.0
+print(json.dumps([loaded, type(solver.simulate_kernel._cache).__name__, h.hexdigest(), blas,
+                  scipy_linalg]))
 """
 #: disables the lean load (numba's own load, with its refresh) in a fresh process
 FULL_LOAD = "import bowlrec.core._kernel_cache as kc; kc.load_lean = lambda *kernels: None"
@@ -107,6 +113,21 @@ def test_a_fresh_process_loads_only_what_it_runs_and_the_bits_are_numbas(
     assert lean[0] == full[0] == kernels
     assert (lean[1], full[1]) == ("LeanFunctionCache", "FunctionCache")
     assert lean[2] == full[2]
+    assert lean[3] == full[3]  # numba's answer to "is there BLAS?", without importing scipy
+    assert not lean[4]
+    assert full[4] == full[3]  # numba's own probe imports scipy.linalg where scipy is there
+
+
+def test_the_blas_probe_gives_numbas_answer() -> None:
+    from bowlrec.core._kernel_cache import _blas_present
+
+    try:
+        import scipy.linalg.cython_blas  # noqa: F401  (numba's probe)
+    except ImportError:
+        with pytest.raises(ImportError):
+            _blas_present()
+    else:
+        _blas_present()
 
 
 def test_load_lean_leaves_other_caches_alone() -> None:
