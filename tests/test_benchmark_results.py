@@ -118,3 +118,22 @@ def test_core_layout_results_follow_from_their_numbers(name: str) -> None:
     }
     for label, (key, limit) in limits.items():
         assert met[label] == ("yes" if ratio[key] <= limit else "no"), label
+
+
+def test_cold_start_results_follow_from_their_numbers() -> None:
+    """benchmarks/results/cold_start.*: the ratios are the rounds', the verdicts the targets'."""
+    import statistics
+
+    from benchmarks.cold_start import TARGET_RATIO, TARGET_SECONDS, _markdown
+
+    doc = json.loads((RESULTS / "cold_start.json").read_text())
+    raw, ratio = doc["raw"], doc["ratio"]
+    walls = [a["wall_s"] / b["wall_s"] for a, b in zip(raw["after"], raw["before"], strict=True)]
+    assert len(walls) == doc["runs"]
+    assert ratio["wall_s"]["median"] == pytest.approx(statistics.median(walls), rel=1e-12)
+    after = statistics.median(run["wall_s"] for run in raw["after"])
+    assert doc["met"] == {
+        "ratio": ratio["wall_s"]["median"] <= TARGET_RATIO,
+        "seconds": after <= TARGET_SECONDS,
+    }
+    assert (RESULTS / "cold_start.md").read_text() == _markdown(doc)

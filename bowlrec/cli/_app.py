@@ -73,7 +73,3 @@ def _root(
 ) -> None:
     """Bowling-ball motion simulator (Frohlich 2004 exact equations of motion) and trajectory
     archive."""
-
-
-def main() -> None:
-    app()

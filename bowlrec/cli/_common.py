@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
-from bowlrec.archive import Archive, default_archive_path
 from bowlrec.errors import (
     BowlrecError,
     BusyError,
@@ -119,6 +118,7 @@ def open_archive(path: Path | None, *, create: bool = True) -> Archive:
     """The archive at ``path`` or the configured default; exits with a clear error when the
     directory cannot be opened (:class:`~bowlrec.errors.ArchiveError` when it is not an
     archive)."""
+    from bowlrec.archive import Archive, default_archive_path
 
     if path is None:
         path, _source = default_archive_path()

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ._kernel_cache import load_lean
 from .arguments import (
     initial_state,
     kernel_params,
@@ -45,6 +46,11 @@ from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
 from .terms import EXTERNAL_TERM, INERTIA_TERMS, TORQUE_TERMS
 from .trajectory import Event, Observation, Summary, Trajectory
+
+# the kernels this module calls load from numba's cache without the full refresh of numba's
+# target context (bowlrec.core._kernel_cache.load_lean): what a fresh process's first delivery
+# waits for
+load_lean(closed_form_kernel, simulate_kernel, derive_samples, rolling_at_release)
 
 
 def kernel_call(
@@ -140,12 +146,16 @@ def solve(
         )
         for row in ev
     ]
-    slide_x = float(first_slide_x(ev, nev))
+    # the compiled helpers' Python bodies where the compiled code would buy nothing: a scan of
+    # the few event rows, and no samples to derive from (a summary-only run): each compiled
+    # helper called costs its load from numba's cache in a fresh process; same bits either way
+    slide_x = float(first_slide_x.py_func(ev, nev))
     rolling = math.isnan(slide_x) and bool(
         rolling_at_release(y0, par, x_edges, y_edges, mu_grid, float(plan.rtol), plan.g_mps2)
     )
     summary = summarize(y0, slide_x, rolling, int(status), float(t_end), y_end, nev, nsteps, nfev)
-    normal, friction, slips, energy, alpha, inertia_alpha, torques = derive_samples(
+    derive = derive_samples if rec.shape[0] else derive_samples.py_func
+    normal, friction, slips, energy, alpha, inertia_alpha, torques = derive(
         rec, par, bool(plan.record_terms)
     )
     n = rec.shape[0]

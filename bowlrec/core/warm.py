@@ -10,7 +10,8 @@ loaded. A name is a variant of :data:`VARIANTS` or a group of :data:`GROUPS`:
 * ``closed_form``: the closed form (uniform ball, summary only);
 * ``integrator``, ``steps``, ``rate``: the integrator recording the summary only, every step with
   the equation terms, samples at a fixed rate (one compiled signature; the three run its three
-  recording paths);
+  recording paths); each also loads the helper deriving forces and energies from samples, which
+  a summary-only run does not call;
 * ``observe``: the integrator with observed stations and turns (bowlers' reports, aim);
 * ``batch_serial``, ``batch_parallel``: the many-delivery kernel on one thread, on all threads;
 * groups: ``service`` (what a request, a job run in the server process and a session shot use:
@@ -108,6 +109,8 @@ def _integrator(**changes: Any) -> Callable[[], None]:
         plan = dataclasses.replace(offset_plan(), **changes)
         assert not use_closed_form(plan)
         solve(plan)
+        if plan.record_mode == RECORD_SUMMARY:  # no samples: the solve derived nothing
+            solve(dataclasses.replace(plan, record_mode=RECORD_RATE, record_dt_s=0.5))
 
     return run
 
