@@ -6,7 +6,7 @@ import platform
 from typing import Annotated, Any
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperGroup, TyperOption
 
 from bowlrec.cli._common import EXIT_INTERRUPTED, exit_for
 
@@ -26,6 +26,16 @@ class _Commands(TyperGroup):
             exit_for(err)
             raise
 
+
+def _flag_type(self: TyperOption, ctx: Any) -> str | None:
+    """An option's type in the help: none for a flag (``--quiet``, ``--browser/--no-browser``),
+    which takes no value, so the help does not print ``<bool>`` after it."""
+    return None if self.is_flag else _option_type(self, ctx)
+
+
+# typer builds every option as a TyperOption and has no hook for its help's type column
+_option_type = TyperOption.display_type_rich
+TyperOption.display_type_rich = _flag_type  # type: ignore[method-assign]
 
 app = typer.Typer(
     name="bowlrec",

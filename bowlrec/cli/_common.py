@@ -35,13 +35,16 @@ if TYPE_CHECKING:
 QuietOption = Annotated[
     bool, typer.Option("--quiet", "-q", help="No progress output (also off when not a terminal).")
 ]
+#: where the archive is when none is given (bowlrec.archive.location's order)
+ARCHIVE_DEFAULT_HELP = (
+    "default: $BOWLREC_ARCHIVE, the config file's 'archive', or ~/.local/share/bowlrec/archive"
+)
 ArchiveOption = Annotated[
     Path | None,
     typer.Option(
         "--archive",
         "-a",
-        help="Archive directory (default: $BOWLREC_ARCHIVE, the config file's 'archive', or "
-        "~/.local/share/bowlrec/archive).",
+        help=f"Archive directory ({ARCHIVE_DEFAULT_HELP}).",
         show_default=False,
     ),
 ]

@@ -38,7 +38,7 @@ from ._outputs import (
 runs_app = typer.Typer(help="List, show, export and remove archived runs.", no_args_is_help=True)
 app.add_typer(runs_app, name="runs")
 archive_app = typer.Typer(
-    help="The archive as a whole: format migration, summary.", no_args_is_help=True
+    help="The archive as a whole: format migration, info.", no_args_is_help=True
 )
 app.add_typer(archive_app, name="archive")
 
@@ -233,7 +233,9 @@ def show(
 
     table = Table(title=f"run {stored.run_id} ({stored.scene.name})", show_header=False)
     for key, value in {**row, **provenance}.items():
-        table.add_row(key, str(value))
+        if value is None or value == "":  # not applicable to this run (no library ball, no pins)
+            continue
+        table.add_row(key, f"{value:.10g}" if isinstance(value, float) else str(value))
     table.add_row(
         "events", "\n".join(f"{e['kind']} t={e['t_s']:.4f}s x={e['x_m']:.3f}m" for e in events)
     )

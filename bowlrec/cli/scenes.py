@@ -349,8 +349,9 @@ def examples(
 
 
 def _floats(values: Any) -> str:
-    """``[a, b, c]`` with each value as Python prints a float (shortest round-trip form)."""
-    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
+    """``[a, b, c]`` with each value to 10 significant digits (``0.004761``, not the binary
+    float's ``0.0047610000000000005``)."""
+    return "[" + ", ".join(f"{float(v):.10g}" for v in values) + "]"
 
 
 @app.command()

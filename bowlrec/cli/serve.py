@@ -35,7 +35,7 @@ from bowlrec.service.names import (
 )
 
 from ._app import app
-from ._common import EXIT_INTERRUPTED, ArchiveOption, fail, open_archive
+from ._common import ARCHIVE_DEFAULT_HELP, EXIT_INTERRUPTED, ArchiveOption, fail, open_archive
 
 #: the largest request-body limit serve accepts (MiB): 4 GiB
 MAX_BODY_MB = 4096.0
@@ -152,10 +152,7 @@ def serve(
 def ui(
     archive: Annotated[
         Path | None,
-        typer.Argument(
-            help="The archive directory (default: BOWLREC_ARCHIVE, the config file, or "
-            "./bowlrec-archive)."
-        ),
+        typer.Argument(help=f"The archive directory ({ARCHIVE_DEFAULT_HELP})."),
     ] = None,
     port: Annotated[
         int,
