@@ -73,3 +73,31 @@ def test_runs_show_leaves_out_fields_a_run_does_not_have(tmp_path: Path) -> None
         app, ["runs", "show", stored.run_id, "-a", str(tmp_path / "a"), "--json"]
     )
     assert json.loads(as_json.output)["index"]["ball_name"] is None
+
+
+def _low_rev_scene(tmp_path: Path) -> Path:
+    """A right-hander's 200 rpm, 20 deg rotation release from board 12: aimed into the pocket's
+    board by the target alone, it enters at about 2 deg."""
+    doc = json.loads((ROOT / "examples/bowler/pocket-right.json").read_text())
+    doc["delivery"].update(rev_rate_rpm=200.0, axis_rotation_deg=20.0, laydown_board=12.0)
+    path = tmp_path / "low-rev.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_aim_with_one_variable_fails_when_the_angle_is_out_of_its_window(tmp_path: Path) -> None:
+    """One free variable solves the entry board; at 2 deg against the 4-6 deg window that is
+    not "aimed": exit 1, --out not written, the title and --json say so."""
+    scene, out = _low_rev_scene(tmp_path), tmp_path / "aimed.json"
+    result = runner.invoke(app, ["aim", str(scene), "-v", "target", "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    assert "entry board solved, entry angle outside its window" in result.output
+    assert "aim: aimed" not in result.output and "not written" in result.output
+    assert not out.exists()
+    doc = json.loads(runner.invoke(app, ["aim", str(scene), "-v", "target", "--json"]).output)
+    assert doc["found"] is True and doc["aimed"] is False and doc["in_window"] is False
+    assert doc["report"]["entry_angle_deg"] < 4.0
+    # two variables solve the angle as well
+    both = runner.invoke(app, ["aim", str(scene), "-v", "speed", "-v", "target", "-o", str(out)])
+    assert both.exit_code in (0, 1), both.output
+    assert out.exists() == (both.exit_code == 0)

@@ -109,7 +109,8 @@ def aim(
 ) -> None:
     """Find the shot that enters the pocket: vary one variable for the entry board, or two for
     the entry board and angle (or the entry board and a breakpoint board). Exits 1 when no
-    shot within the bounds does (the closest is shown, and --out is not written)."""
+    shot within the bounds enters the pocket window, board and angle (with
+    --breakpoint-board: the board); the closest is shown, and --out is not written."""
     from bowlrec.bowling.aim import aim as solve_aim
 
     if out is not None and out.suffix.lower() != ".json":
@@ -123,7 +124,10 @@ def aim(
 
         breakpoint_board = breakpoint_board_for(pattern_length_ft(bowler.pattern_model()))
     result = solve_aim(bowler, vary or ["target"], pocket, breakpoint_board=breakpoint_board)
-    written = out if out is not None and result.found else None
+    # with a breakpoint board the angle is what the ball gives; otherwise the shot must be in
+    # both windows (one variable solves the board alone: its angle may still be outside)
+    aimed = result.found and (breakpoint_board is not None or _in_window(result))
+    written = out if out is not None and aimed else None
     if written is not None:
         from bowlrec.atomic_files import atomic_path
 
@@ -131,21 +135,33 @@ def aim(
             tmp.write_text(json.dumps(result.scene.model_dump(mode="json"), indent=2) + "\n")
     if as_json:
         doc = result.to_dict()
+        doc["aimed"] = aimed
         doc["written"] = None if written is None else str(written)
         typer.echo(json.dumps(doc))
     else:
-        _print(result, written)
+        _print(result, aimed, written)
         if out is not None and written is None:
-            typer.echo(f"{out}: not written (no shot enters the pocket)")
-    if not result.found:
+            typer.echo(f"{out}: not written (the shot does not enter the pocket window)")
+    if not aimed:
         raise typer.Exit(1)
 
 
-def _print(result: Any, out: Path | None) -> None:
+def _in_window(result: Any) -> bool:
+    """Whether the result's shot enters both the pocket's board and angle windows."""
+    shot = result.shot
+    return bool(result.pocket.contains(shot.entry_board, shot.entry_angle_deg))
+
+
+def _print(result: Any, aimed: bool, out: Path | None) -> None:
     from rich.table import Table
 
     shot = result.shot
-    title = "aimed" if result.found else "no solution: closest shot"
+    if aimed:
+        title = "aimed"
+    elif result.found:
+        title = "entry board solved, entry angle outside its window"
+    else:
+        title = "no solution: closest shot"
     table = Table(title=f"bowlrec aim: {title}", show_header=False)
     for name, value in result.values.items():
         unit = {"target": "board at the arrows", "launch": "deg", "laydown": "board"}.get(
@@ -165,8 +181,10 @@ def _print(result: Any, out: Path | None) -> None:
         f"entry angle 51-55 ft {_fmt(r.specto_entry_angle_deg)} deg, board at 59.5 ft "
         f"{_fmt(r.specto_entry_board)}, launch angle 0-10 ft {_fmt(r.specto_launch_angle_deg)} deg",
     )
-    in_window = result.pocket.contains(shot.entry_board, shot.entry_angle_deg)
-    table.add_row("pocket", f"{result.pocket.describe()}: {'in' if in_window else 'out of'} window")
+    in_window = _in_window(result)
+    table.add_row(
+        "pocket window", f"{result.pocket.describe()}: {'in' if in_window else 'out of'} window"
+    )
     table.add_row("search", f"{result.evaluations} shots in {1000 * result.seconds:.0f} ms")
     print_table(table)
     typer.echo(result.message)
