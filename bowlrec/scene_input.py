@@ -267,6 +267,11 @@ def check_scene(
         raise SceneInputError(
             f"{what}: expected a mapping (JSON object), got {type(data).__name__}"
         )
+    from bowlrec.file_kinds import wrong_kind
+
+    other = wrong_kind(data, "bowler" if bowler else "scene", "bowler", "scene")
+    if other is not None:
+        raise SceneInputError(other)
     if bowler and "format" not in data:
         data = {"format": "bowler", **data}
     if "format" in data and data["format"] != "bowler":

@@ -101,3 +101,121 @@ def test_aim_with_one_variable_fails_when_the_angle_is_out_of_its_window(tmp_pat
     both = runner.invoke(app, ["aim", str(scene), "-v", "speed", "-v", "target", "-o", str(out)])
     assert both.exit_code in (0, 1), both.output
     assert out.exists() == (both.exit_code == 0)
+
+
+# -- the right command for a file, names that are close --------------------------------------
+
+
+def _error_lines(args: list[str]) -> list[str]:
+    result = runner.invoke(app, args, env={"COLUMNS": "200"})
+    assert result.exit_code == 2, result.output
+    return [line for line in result.output.splitlines() if line.strip()]
+
+
+def test_a_file_given_to_the_wrong_command_names_the_right_one() -> None:
+    """A scene to `batch`, a job to `simulate`, a session to `batch`: one line naming what
+    the file is and the command that runs it, not the other format's field errors."""
+    bowler, job = (
+        ROOT / "examples/bowler/pocket-right.json",
+        ROOT / "examples/jobs/speed-rev-grid.json",
+    )
+    session = ROOT / "examples/session/league-night.yaml"
+    cases = [
+        (
+            ["batch", str(bowler), "--no-archive"],
+            "this is a bowler scene, not a batch job",
+            "`bowlrec simulate`",
+        ),
+        (
+            ["batch", str(CASE16), "--no-archive"],
+            "this is a physical scene, not a batch job",
+            "`bowlrec simulate`",
+        ),
+        (
+            ["simulate", str(job), "--no-archive"],
+            "this is a batch job, not a scene",
+            "`bowlrec batch`",
+        ),
+        (
+            ["simulate", str(session), "--no-archive"],
+            "this is a session, not a scene",
+            "`bowlrec session`",
+        ),
+        (["session", str(job)], "this is a batch job, not a session", "`bowlrec batch`"),
+        (["carry", str(bowler)], "this is a bowler scene, not a carry map", "`bowlrec simulate`"),
+    ]
+    for args, what, command in cases:
+        lines = _error_lines(args)
+        assert len(lines) == 1, lines
+        assert what in lines[0] and command in lines[0], lines
+        assert "Extra inputs" not in lines[0] and "Input should be" not in lines[0]
+
+
+def test_close_names_for_fields_patterns_and_balls(tmp_path: Path) -> None:
+    """A misspelt field, pattern or library ball gets the name it is close to; an unknown ball
+    lists a few names and how many more, never a cut-off list of every one."""
+    doc = json.loads((ROOT / "examples/bowler/pocket-right.json").read_text())
+    doc["delivery"]["speed_mhp"] = doc["delivery"].pop("speed_mph")
+    doc["pattern"] = "kegel_stonhenge"
+    path = tmp_path / "typo.json"
+    path.write_text(json.dumps(doc))
+    text = "\n".join(_error_lines(["simulate", str(path), "--no-archive"]))
+    assert (
+        "delivery.speed_mhp: Extra inputs are not permitted (got 17.5); did you mean 'speed_mph'?"
+        in text
+    )
+    assert "did you mean 'kegel_stonehenge'?" in text
+    archive = tmp_path / "a"
+    assert runner.invoke(app, ["balls", "add-examples", "-a", str(archive)]).exit_code == 0
+    bowler = str(ROOT / "examples/bowler/pocket-right.json")
+    (line,) = _error_lines(["simulate", bowler, "-a", str(archive), "--ball", "storm-the-raod"])
+    assert "did you mean 'storm-the-road-15lb'" in line and "`bowlrec balls list`" in line
+    (line,) = _error_lines(["simulate", bowler, "-a", str(archive), "--ball", "zzzz"])
+    assert " more " in line and "more characters" not in line and len(line) < 400
+
+
+def test_a_scene_file_names_a_library_ball(tmp_path: Path) -> None:
+    """`ball: NAME` in a scene file is a ball of the archive's library: simulated with it and
+    archived with its reference; without the archive, the line says where library balls are."""
+    archive = tmp_path / "a"
+    assert runner.invoke(app, ["balls", "add-examples", "-a", str(archive)]).exit_code == 0
+    doc = json.loads((ROOT / "examples/bowler/pocket-right.json").read_text())
+    doc["ball"] = "storm-the-road-15lb"
+    path = tmp_path / "library-ball.json"
+    path.write_text(json.dumps(doc))
+    result = runner.invoke(app, ["simulate", str(path), "-a", str(archive), "--json", "-q"])
+    assert result.exit_code == 0, result.output
+    run_id = json.loads(result.output)["run_id"]
+    shown = json.loads(
+        runner.invoke(app, ["runs", "show", run_id, "-a", str(archive), "--json"]).output
+    )
+    assert shown["index"]["ball_name"] == "storm-the-road-15lb"
+    (line,) = _error_lines(["simulate", str(path), "-a", str(tmp_path / "none")])
+    assert "names a ball of the archive's library" in line and "not an archive" in line
+    assert "not available here" not in line
+
+
+def test_a_job_checks_every_listed_pattern_before_its_first_run(tmp_path: Path) -> None:
+    """An unknown pattern among a sweep's values fails the job before any run, naming the
+    value and the close preset."""
+    job = {
+        "format": "bowlrec-job",
+        "base": str(ROOT / "examples/bowler/pocket-right.json"),
+        "sweep": {
+            "kind": "grid",
+            "axes": {
+                "pattern": ["house_shot_approx", "kegel_stonhenge"],
+                "delivery.speed_mph": [16.0, 17.0, 18.0],
+            },
+        },
+        "record": "summary",
+    }
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(job))
+    archive = tmp_path / "a"
+    lines = _error_lines(["batch", str(path), "-a", str(archive), "-q"])
+    text = "\n".join(lines)
+    assert (
+        "value 'kegel_stonhenge' is invalid" in text and "did you mean 'kegel_stonehenge'" in text
+    )
+    assert not (archive / "segments").exists() or not any((archive / "segments").iterdir())

@@ -436,8 +436,8 @@ def test_a_wrong_or_missing_format_is_one_line() -> None:
 def test_several_unknown_fields_of_one_mapping_are_one_line() -> None:
     message = _error({"ball": {"weight_lb": 15, "rg_in": 2.5}, "delivery": {"speed_mph": 17}})
     assert message.splitlines() == [
-        "ball: Extra inputs are not permitted: weight_lb, rg_in",
-        "delivery.speed_mph: Extra inputs are not permitted (got 17)",
+        "ball: Extra inputs are not permitted: weight_lb, rg_in (did you mean 'rg_m'?)",
+        "delivery.speed_mph: Extra inputs are not permitted (got 17); did you mean 'speed_mps'?",
     ]
 
 
@@ -493,7 +493,10 @@ def test_keys_the_user_wrote_stay_in_the_location() -> None:
         "sweep.grid.axes.delivery.omega_radps[1]: Input should be a valid list, or a valid "
         "dictionary or instance of Linspace (got 'x')",
     ]
-    assert _error({"ball": {"Mass": 1}}) == "ball.Mass: Extra inputs are not permitted (got 1)"
+    assert _error({"ball": {"Mass": 1}}) == (
+        "ball.Mass: Extra inputs are not permitted (got 1); did you mean 'mass_kg'?"
+    )
     assert _error({"ball": {"Mass": 1, "Radius": 2}}) == (
-        "ball: Extra inputs are not permitted: Mass, Radius"
+        "ball: Extra inputs are not permitted: Mass (did you mean 'mass_kg'?), Radius (did you "
+        "mean 'radius_m'?)"
     )

@@ -266,7 +266,9 @@ def test_a_batch_of_a_session_file_names_the_command() -> None:
     from bowlrec.batch.job import load_job
     from bowlrec.errors import JobError
 
-    with pytest.raises(JobError, match="play it with `bowlrec session"):
+    with pytest.raises(
+        JobError, match="this is a session, not a batch job: run it with `bowlrec session`"
+    ):
         load_job(EXAMPLE)
 
 

@@ -34,8 +34,9 @@ FLOORS: list[tuple[str, tuple[str, ...], str]] = [
     ),
     (
         "ground",
-        ("bowlrec.atomic_files", "bowlrec.provenance"),
-        "atomic file writes; what produced a run (versions, platform)",
+        ("bowlrec.atomic_files", "bowlrec.provenance", "bowlrec.suggest", "bowlrec.file_kinds"),
+        "atomic file writes; what produced a run (versions, platform); close names for an "
+        "unknown one; which kind of file a mapping is and which command reads it",
     ),
     ("numerics", ("bowlrec.core",), "compiled kernels on plain floats: Plan in, Trajectory out"),
     ("scene", ("bowlrec.spec",), "Pydantic scene models in SI units, resolve() -> Plan"),

@@ -136,9 +136,23 @@ class BallLibrary:
                 "SELECT * FROM balls WHERE name = ? AND version = ?", (name, version)
             )
         if not rows:
-            known = ", ".join(sorted({e.name for e in self.list()})) or "none"
-            raise BallNotFoundError(f"no ball {ref!r} in the library (balls: {known})")
+            raise BallNotFoundError(self._not_found(ref, name))
         return entry_from_row(rows[0])
+
+    def _not_found(self, ref: str, name: str) -> str:
+        """No ball ``ref``: the close names, or how many the library holds."""
+        from bowlrec.suggest import did_you_mean, some_names
+
+        known = {e.name for e in self.list()}
+        if not known:
+            return (
+                f"no ball {ref!r} in the library: it is empty (`bowlrec balls add-examples` adds "
+                "the curated spec sheets, `bowlrec balls add NAME FILE` your own)"
+            )
+        if name in known:  # the name is there, not this version
+            return f"no ball {ref!r} in the library (`bowlrec balls list --all` lists versions)"
+        hint = did_you_mean(name, known) or f"balls: {some_names(known)}"
+        return f"no ball {ref!r} in the library; {hint} (`bowlrec balls list` lists them all)"
 
     def list(self, name: str | None = None, all_versions: bool = False) -> builtins.list[BallEntry]:
         """Entries sorted by name and version; only the latest per name unless ``all_versions``."""

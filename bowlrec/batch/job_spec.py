@@ -38,6 +38,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from bowlrec.errors import JobError
+from bowlrec.file_kinds import wrong_kind
 from bowlrec.scene_input import prefix_lines
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import format_validation_error
@@ -437,10 +438,9 @@ def load_job(path: str | Path) -> JobSpec:
         data = read_mapping(p)
     except (OSError, ValueError) as err:
         raise JobError(f"{p}: {err}") from err
-    if isinstance(data, dict) and data.get("format") == "bowlrec-session":
-        raise JobError(
-            f"{p}: a session file (format bowlrec-session): play it with `bowlrec session {p}`"
-        )
+    other = wrong_kind(data, "bowlrec-job")
+    if other is not None:
+        raise JobError(f"{p}: {other}")
     try:
         return JobSpec.model_validate(data)
     except ValidationError as err:

@@ -59,6 +59,7 @@ from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, fmt, 
 from bowlrec.units import BOARDS, LANE_LENGTH_FT
 
 __all__ = [
+    "unknown_preset",
     "INNER_BOARDS",
     "OUTER_BOARDS",
     "KegelPattern",
@@ -476,6 +477,17 @@ def preset_names() -> list[str]:
     """Names of the bundled patterns (file stems under bowlrec/bowling/data/patterns)."""
     names = (p.name for p in _presets_dir().iterdir())
     return sorted(n.removesuffix(".json") for n in names if n.endswith(".json"))
+
+
+def unknown_preset(field: str, name: str) -> str:
+    """The message for a pattern name that is not a preset: the close ones, then every one."""
+    from bowlrec.suggest import did_you_mean
+
+    names = preset_names()
+    hint = did_you_mean(name, names)
+    return f"{field} = {name!r} is not a preset; {hint + ' ' if hint else ''}presets: " + ", ".join(
+        names
+    )
 
 
 def preset(name: str) -> KegelPattern | RectanglePattern:

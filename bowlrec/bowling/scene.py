@@ -46,7 +46,7 @@ from .drilling import DrilledBall, GripDrilling, drill_ball
 from .lane import BowlerLane
 from .layout import PAP, DualAngle, Layout, resolve_ball
 from .legality import LegalityReport, RuleSetName, check_legality
-from .oil import KegelPattern, RectanglePattern, preset, preset_names
+from .oil import KegelPattern, RectanglePattern, preset, preset_names, unknown_preset
 from .oil_friction import OilFrictionMapping, pattern_friction
 from .surface import check_surface
 
@@ -163,6 +163,17 @@ class BowlerScene(SpecModel):
             )
         return value
 
+    @field_validator("pattern")
+    @classmethod
+    def _known_pattern(
+        cls, pattern: str | KegelPattern | RectanglePattern
+    ) -> str | KegelPattern | RectanglePattern:
+        """A name is one of the bundled presets (checked at the field, so a job checks every
+        listed name before its first run)."""
+        if isinstance(pattern, str) and pattern not in preset_names():
+            raise spec_error(unknown_preset("pattern", pattern))
+        return pattern
+
     @field_validator("delivery")
     @classmethod
     def _spinning(cls, delivery: BowlerDelivery) -> BowlerDelivery:
@@ -187,10 +198,6 @@ class BowlerScene(SpecModel):
                 check_surface(self.ball.surface, "ball.surface")
             except ValueError as err:
                 raise spec_error(str(err)) from None
-        if isinstance(self.pattern, str) and self.pattern not in preset_names():
-            raise spec_error(
-                f"pattern = {self.pattern!r} is not a preset; presets: {', '.join(preset_names())}"
-            )
         return self
 
     def pattern_model(self) -> KegelPattern | RectanglePattern:

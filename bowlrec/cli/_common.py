@@ -103,18 +103,43 @@ def exit_for(err: BaseException) -> None:
         fail(f"invalid spec\n{format_validation_error(err)}")
 
 
-def load_scene_or_exit(path: Path) -> Any:
+def load_scene_or_exit(path: Path, archive: Path | None = None) -> Any:
     """The file's physical scene (a bowler scene converted): :func:`parse_scene_or_exit`."""
-    return parse_scene_or_exit(path).scene
+    return parse_scene_or_exit(path, archive).scene
 
 
-def parse_scene_or_exit(path: Path) -> Any:
+def parse_scene_or_exit(path: Path, archive: Path | None = None) -> Any:
     """The file's scene through the one way in for a scene,
-    :func:`bowlrec.scene_input.parse_scene_file` (library references are resolved by the
-    caller). Raises :class:`~bowlrec.errors.SceneInputError`, every line starting with the
-    path, when the file is missing, unreadable or invalid; the application prints it as one
-    ``error:`` line per problem and exits 2."""
-    return parse_scene_file(path)
+    :func:`bowlrec.scene_input.parse_scene_file`; a ``ball: NAME`` names a ball of the ball
+    library of ``archive`` (default: the user's archive), opened only for such a scene.
+    Raises :class:`~bowlrec.errors.SceneInputError`, every line starting with the path, when
+    the file is missing, unreadable or invalid; the application prints it as one ``error:``
+    line per problem and exits 2."""
+    return parse_scene_file(path, archive_balls(archive))
+
+
+def archive_balls(archive: Path | None) -> Any:
+    """A lookup of library balls (``name`` or ``name@version``) in the ball library of
+    ``archive`` (default: the user's archive), which it opens at its first use."""
+    from bowlrec.scene_input import library_lookup
+
+    def lookup(ref: str) -> tuple[dict[str, Any], str]:
+        from bowlrec.archive import Archive, default_archive_path
+        from bowlrec.errors import ArchiveError, SceneInputError
+
+        path = archive if archive is not None else default_archive_path()[0]
+        try:
+            store = Archive(path, create=False)
+        except (ArchiveError, OSError):
+            raise SceneInputError(
+                f"ball: {ref!r} names a ball of the archive's library, and {path} is not an "
+                "archive (give --archive, or add balls with `bowlrec balls add-examples` or "
+                "`bowlrec balls add NAME FILE`)"
+            ) from None
+        result: tuple[dict[str, Any], str] = library_lookup(store.balls)(ref)
+        return result
+
+    return lookup
 
 
 def open_archive(path: Path | None, *, create: bool = True) -> Archive:

@@ -22,11 +22,11 @@ def patterns(
 ) -> None:
     """Oil-pattern presets with their Kegel-sheet statistics (volume, crosses, ratio)."""
 
-    from bowlrec.bowling.oil import pattern_statistics, preset, preset_names
+    from bowlrec.bowling.oil import pattern_statistics, preset, preset_names, unknown_preset
 
     names = preset_names() if name is None else [name]
     if name is not None and name not in preset_names():
-        fail(f"no pattern preset {name!r}; presets: {', '.join(preset_names())}")
+        fail(unknown_preset("pattern", name))
     rows = []
     for n in names:
         p = preset(n)
@@ -80,7 +80,10 @@ def sheet(
         return
     entries = {e.id: e for e in lib.balls}
     if ball not in entries:
-        fail(f"no ball {ball!r} in the curated catalog; ids: {', '.join(entries)}")
+        from bowlrec.suggest import did_you_mean, some_names
+
+        hint = did_you_mean(ball, entries) or f"ids: {some_names(entries)}"
+        fail(f"no ball {ball!r} in the curated catalog; {hint} (`bowlrec sheet` lists them all)")
     entry = entries[ball]
     typer.echo(entry.ball.spec_sheet())
     typer.echo(f"  Year            {'not found' if entry.year is None else entry.year}")

@@ -81,7 +81,7 @@ def pins(
 
     from .scenes import run_parsed_scene
 
-    parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
+    parsed = parse_scene_or_exit(scene, archive) if scene is not None else ParsedScene(Scene())
     updates: dict[str, Any] = {}
     if seed is not None:
         updates["seed"] = seed

@@ -513,7 +513,7 @@ def plot(
         for item in runs:
             path = Path(item)
             if path.suffix.lower() in (".json", ".yaml", ".yml"):
-                data.append(_simulated(load_scene_or_exit(path)))
+                data.append(_simulated(load_scene_or_exit(path, archive)))
             else:  # a summary-only run is re-recorded from its stored scene
                 from bowlrec.archive.replay import replay_data
 

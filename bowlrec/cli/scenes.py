@@ -70,7 +70,7 @@ def simulate(
     """
     from bowlrec.spec import Scene
 
-    parsed = parse_scene_or_exit(scene) if scene is not None else ParsedScene(Scene())
+    parsed = parse_scene_or_exit(scene, archive) if scene is not None else ParsedScene(Scene())
     run_parsed_scene(
         parsed,
         archive=archive,

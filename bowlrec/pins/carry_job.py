@@ -31,6 +31,7 @@ from typing import Any, Literal
 from pydantic import Field, ValidationError, field_validator, model_validator
 
 from bowlrec.errors import JobError, SpecFileError
+from bowlrec.file_kinds import wrong_kind
 from bowlrec.spec._base import SpecModel, spec_error
 from bowlrec.spec.errors import format_validation_error
 from bowlrec.spec.loading import read_mapping
@@ -165,6 +166,9 @@ def load_carry_job(path: str | Path) -> CarryJob:
     with the path (a missing or unreadable file too)."""
     try:
         data = read_mapping(path)
+        other = wrong_kind(data, "bowlrec-carry")
+        if other is not None:
+            raise JobError(f"{path}: {other}")
         return CarryJob.model_validate(data)
     except ValidationError as err:
         lines = format_validation_error(err).splitlines()

@@ -41,13 +41,14 @@ from pydantic import (
     model_validator,
 )
 
-from bowlrec.bowling.oil import KegelPattern, RectanglePattern, preset, preset_names
+from bowlrec.bowling.oil import KegelPattern, RectanglePattern, preset, preset_names, unknown_preset
 from bowlrec.bowling.oil_friction import OilFrictionMapping
 from bowlrec.bowling.oil_transfer import TransferModel
 from bowlrec.bowling.pocket import POCKET, Pocket
 from bowlrec.bowling.scene import BowlerScene
 from bowlrec.bowling.variance import PRESETS, ReleaseScatter
 from bowlrec.errors import SceneInputError, SpecFileError
+from bowlrec.file_kinds import wrong_kind
 from bowlrec.scene_input import check_scene_input, prefix_lines
 from bowlrec.spec import format_validation_error
 from bowlrec.spec._base import NonNegativeFloat, PositiveFloat, SpecModel, spec_error
@@ -212,9 +213,7 @@ class SessionSpec(SpecModel):
         cls, pattern: str | KegelPattern | RectanglePattern
     ) -> str | KegelPattern | RectanglePattern:
         if isinstance(pattern, str) and pattern not in preset_names():
-            raise spec_error(
-                f"pattern = {pattern!r} is not a preset; presets: {', '.join(preset_names())}"
-            )
+            raise spec_error(unknown_preset("pattern", pattern))
         return pattern
 
     @field_validator("pins")
@@ -376,6 +375,9 @@ def parse_session(data: object, base_dir: str | Path = ".") -> SessionSpec:
     SceneInputError with one line per problem otherwise."""
     if not isinstance(data, dict):
         raise SceneInputError("a session file holds a mapping (format: bowlrec-session)")
+    other = wrong_kind(data, SESSION_FORMAT)
+    if other is not None:
+        raise SceneInputError(other)
     fmt_ = data.get("format", SESSION_FORMAT)
     if fmt_ != SESSION_FORMAT:
         raise SceneInputError(f"format = {fmt_!r}: a session file has format {SESSION_FORMAT!r}")

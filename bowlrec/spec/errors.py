@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 import unicodedata
 from collections.abc import Iterable, Mapping
-from typing import Any
+from typing import Any, get_args
 
 from pydantic import BaseModel, ValidationError
 
@@ -68,6 +68,50 @@ def _model_names() -> frozenset[str]:
             if sub.__module__.startswith("bowlrec."):
                 names.add(sub.__name__)
     return frozenset(names)
+
+
+def _model_named(name: str) -> type[BaseModel] | None:
+    """bowlrec's Pydantic model of that class name (a ValidationError's ``title``), if any."""
+    stack: list[type[BaseModel]] = [BaseModel]
+    while stack:
+        cls = stack.pop()
+        for sub in cls.__subclasses__():
+            if sub.__name__ == name and sub.__module__.startswith("bowlrec."):
+                return sub
+            stack.append(sub)
+    return None
+
+
+def _models_in(annotation: Any) -> list[type[BaseModel]]:
+    """The models a field's annotation can hold (through Optional, unions, lists, tuples,
+    dicts and Annotated)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return [annotation]
+    return [m for arg in get_args(annotation) for m in _models_in(arg)]
+
+
+def _field_names(root: type[BaseModel] | None, loc: tuple[int | str, ...]) -> set[str]:
+    """The field names (and aliases) of the mapping at ``loc`` below model ``root`` (empty
+    when the place is not a model's)."""
+    models: list[type[BaseModel]] = [] if root is None else [root]
+    for part in loc:
+        if isinstance(part, int):  # an item of a list or tuple: the models it may hold
+            continue
+        fields = [m.model_fields[part] for m in models if part in m.model_fields]
+        models = [m for f in fields[:1] for m in _models_in(f.annotation)]
+    names: set[str] = set()
+    for m in models:
+        for name, info in m.model_fields.items():
+            names.add(name if info.alias is None else info.alias)
+    return names
+
+
+def _unknown_field(root: type[BaseModel] | None, parent: tuple[int | str, ...], name: str) -> str:
+    """``name`` with a close field name of the mapping at ``parent``, when there is one."""
+    from bowlrec.suggest import did_you_mean
+
+    hint = did_you_mean(name, _field_names(root, parent))
+    return f"{name} ({hint})" if hint else name
 
 
 def _is_mismatch(error: dict[str, Any]) -> bool:
@@ -130,13 +174,14 @@ def _message(error: Mapping[str, Any]) -> str:
 def format_validation_error(err: ValidationError) -> str:
     """One line per error, ``"loc: message"``, with the offending value where it helps, e.g.
     ``ball.mass_kg: Input should be greater than 0 (got -1.0)``."""
-    return format_errors(err.errors(include_url=False))
+    return format_errors(err.errors(include_url=False), _model_named(err.title))
 
 
-def format_errors(details: Iterable[Mapping[str, Any]]) -> str:
+def format_errors(details: Iterable[Mapping[str, Any]], root: type[BaseModel] | None = None) -> str:
     """:func:`format_validation_error` for error details (``loc``, ``msg``, ``type``,
     ``input``) as Pydantic and FastAPI report them. Every line is printable (control
-    characters escaped, long values cut)."""
+    characters escaped, long values cut). With the validated model ``root``, an unknown field
+    gets the closest known name (``did you mean 'speed_mph'?``)."""
     errors: list[tuple[tuple[int | str, ...], dict[str, Any]]] = []
     models = _model_names()
     for detail in details:
@@ -163,7 +208,8 @@ def format_errors(details: Iterable[Mapping[str, Any]]) -> str:
             continue
         lines.setdefault(loc, []).append(e)
     out = [
-        f"{format_loc(parent)}: Extra inputs are not permitted: {', '.join(names)}"
+        f"{format_loc(parent)}: Extra inputs are not permitted: "
+        + ", ".join(_unknown_field(root, parent, name) for name in names)
         for parent, names in extras.items()
         if len(names) > 1
     ]
@@ -175,5 +221,12 @@ def format_errors(details: Iterable[Mapping[str, Any]]) -> str:
             shown = "" if isinstance(got, dict | list) else f" (got {_echo(got)})"
             out.append(f"{format_loc(loc)}: Input should be {', or '.join(wants)}{shown}")
             group = [e for e in group if not _is_mismatch(e)]
-        out.extend(f"{format_loc(loc)}: {_message(e)}" for e in group)
+        for e in group:
+            line = f"{format_loc(loc)}: {_message(e)}"
+            if e["type"] == "extra_forbidden" and loc:
+                from bowlrec.suggest import did_you_mean
+
+                hint = did_you_mean(str(loc[-1]), _field_names(root, loc[:-1]))
+                line += f"; {hint}" if hint else ""
+            out.append(line)
     return "\n".join(printable(line) for line in out)
