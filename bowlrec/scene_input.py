@@ -347,11 +347,21 @@ def parse_scene_input(
     balls: BallSource | BallLookup | None = None,
     *,
     base_dir: str | os.PathLike[str] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> ParsedScene:
     """The physical scene of a scene given any way (:func:`check_scene_input`, then
-    :meth:`CheckedScene.parsed`); what :func:`bowlrec.simulate` and the command line use."""
+    :meth:`CheckedScene.parsed`); what :func:`bowlrec.simulate` and the command line use.
+    ``warn`` gets each value that looks typed in another unit
+    (:func:`bowlrec.spec.unit_sense.unit_warnings`), prefixed with the file's path, before
+    the scene is converted (so the warning comes before a conversion that fails because of
+    the value)."""
     checked = check_scene_input(source, balls, base_dir=base_dir)
     path = _as_path(source, base_dir)
+    if warn is not None:
+        from bowlrec.spec.unit_sense import unit_warnings
+
+        for line in unit_warnings(checked.model):
+            warn(line if path is None else f"{path}: {line}")
     if path is None:
         return checked.parsed()
     with _prefixed(path):
@@ -359,8 +369,11 @@ def parse_scene_input(
 
 
 def parse_scene_file(
-    path: str | os.PathLike[str], balls: BallSource | BallLookup | None = None
+    path: str | os.PathLike[str],
+    balls: BallSource | BallLookup | None = None,
+    *,
+    warn: Callable[[str], None] | None = None,
 ) -> ParsedScene:
     """Read and parse a scene file (.json, .yaml, .yml): :func:`parse_scene_input` of a path;
     SceneInputError prefixed with the path when it cannot be read or is invalid."""
-    return parse_scene_input(Path(path), balls)
+    return parse_scene_input(Path(path), balls, warn=warn)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from bowlrec.api import simulate_into
@@ -219,3 +220,146 @@ def test_a_job_checks_every_listed_pattern_before_its_first_run(tmp_path: Path) 
         "value 'kegel_stonhenge' is invalid" in text and "did you mean 'kegel_stonehenge'" in text
     )
     assert not (archive / "segments").exists() or not any((archive / "segments").iterdir())
+
+
+# -- values that look typed in another unit ---------------------------------------------------
+
+
+def _scene_file(tmp_path: Path, example: str, **delivery: float) -> Path:
+    doc = json.loads((ROOT / example).read_text())
+    doc["delivery"].update(delivery)
+    path = tmp_path / f"scene-{len(list(tmp_path.iterdir()))}.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _warnings(args: list[str]) -> tuple[int, list[str]]:
+    result = CliRunner().invoke(app, args, env={"COLUMNS": "300"})
+    return result.exit_code, [x for x in result.stderr.splitlines() if x.startswith("warning:")]
+
+
+def test_a_speed_in_the_wrong_unit_is_a_warning_not_a_refusal(tmp_path: Path) -> None:
+    """speed_mps = 17 (mph typed into m/s) runs, with a warning naming the likely unit; 38 m/s
+    is 38 km/h; 60 and 100 m/s are only out of range; the paper's 8 m/s says nothing."""
+    case16 = "examples/paper/case16.json"
+    expected = {
+        17.0: "did you mean 17 mph (7.6 m/s) or 17 km/h (4.72 m/s)?",
+        38.0: "did you mean 38 km/h (10.6 m/s)?",
+        60.0: "above the 3.5-12 m/s bowlers throw (options",
+        100.0: "above the 3.5-12 m/s bowlers throw (options",
+    }
+    for speed, text in expected.items():
+        path = _scene_file(tmp_path, case16, speed_mps=speed)
+        code, lines = _warnings(["validate", str(path)])
+        assert code == 0 and len(lines) == 1, lines
+        assert f"delivery.speed_mps = {speed:g}: " in lines[0] and text in lines[0], lines
+        assert "options.unit_warnings: false silences this" in lines[0]
+    assert _warnings(["validate", str(ROOT / case16)]) == (0, [])
+
+
+def test_bowler_units_mixed_up_are_named_before_the_scene_is_converted(tmp_path: Path) -> None:
+    """speed_mph = 7.2 is 7.2 m/s; 40 mph is 40 km/h; rev_rate_rpm = 30 is 30 rad/s; a 4.5 lb
+    ball is 4.5 kg. The warning comes before an error of converting the scene (a 2 mph ball
+    that does not reach the arrows)."""
+    pocket = "examples/bowler/pocket-right.json"
+    cases = {
+        "delivery.speed_mph = 7.2": ({"speed_mph": 7.2}, "did you mean 7.2 m/s (16.1 mph)?"),
+        "delivery.speed_mph = 40": ({"speed_mph": 40.0}, "did you mean 40 km/h (24.9 mph)?"),
+        "delivery.rev_rate_rpm = 30": ({"rev_rate_rpm": 30.0}, "did you mean 30 rad/s (286 rpm)?"),
+    }
+    for field, (delivery, text) in cases.items():
+        path = _scene_file(tmp_path, pocket, **delivery)
+        _code, lines = _warnings(["simulate", str(path), "--no-archive", "-q"])
+        assert len(lines) == 1 and field in lines[0] and text in lines[0], lines
+    doc = json.loads((ROOT / pocket).read_text())
+    doc["delivery"].update(speed_mph=2.0, laydown_board=39.0, target_board_at_arrows=1.0)
+    path = tmp_path / "unreachable.json"  # a target the ball cannot reach: converting fails
+    path.write_text(json.dumps(doc))
+    result = CliRunner().invoke(app, ["simulate", str(path), "--no-archive"])
+    assert result.exit_code == 2
+    err = result.stderr
+    assert "delivery.speed_mph = 2: below" in err and "does not reach the arrows" in err, err
+    assert err.index("warning:") < err.index("error:")
+    doc = json.loads((ROOT / pocket).read_text())
+    doc["ball"]["weight_lb"] = 4.5  # no ball is that light; 4.5 kg is a 10 lb ball
+    path = tmp_path / "light.json"
+    path.write_text(json.dumps(doc))
+    _code, lines = _warnings(["validate", str(path)])
+    assert len(lines) == 1 and "did you mean 4.5 kg (9.92 lb)?" in lines[0], lines
+
+
+def test_a_scene_silences_its_unit_warnings_and_keeps_its_run_id(tmp_path: Path) -> None:
+    """options.unit_warnings: false silences them; the default is not stored with the scene,
+    so scenes dump (and sessions hash) as before the option existed."""
+    doc = json.loads(CASE16.read_text())
+    doc["delivery"]["speed_mps"] = 17.0
+    loud = Scene.model_validate(doc)
+    doc["options"]["unit_warnings"] = False
+    quiet = Scene.model_validate(doc)
+    assert "unit_warnings" not in loud.model_dump_json()
+    assert quiet.model_dump()["options"]["unit_warnings"] is False
+    from bowlrec.archive import run_id
+
+    assert run_id(loud.resolve()) == run_id(quiet.resolve())
+    path = tmp_path / "quiet.json"
+    path.write_text(json.dumps(doc))
+    assert _warnings(["validate", str(path)]) == (0, [])
+
+
+def test_a_job_warns_about_each_swept_value_once_before_its_first_run(tmp_path: Path) -> None:
+    job = {
+        "format": "bowlrec-job",
+        "base": {"delivery": {"speed_mps": 8.0}, "options": {"record": "summary"}},
+        "sweep": {
+            "kind": "grid",
+            "axes": {
+                "delivery.speed_mps": [7.0, 8.0, 17.0],
+                "delivery.omega_radps[1]": [30.0, 300.0],
+            },
+        },
+        "record": "summary",
+    }
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(job))
+    code, lines = _warnings(["batch", str(path), "--no-archive", "-q", "--workers", "0"])
+    assert code == 0
+    assert len(lines) == 2, lines
+    assert "delivery.speed_mps = 17" in lines[0] and "17 mph" in lines[0]
+    assert "omega_radps (magnitude) = 300" in lines[1] and "300 rpm" in lines[1]
+
+
+def test_the_examples_raise_no_unit_warning() -> None:
+    """Every example scene is a delivery bowlers throw: no warning (a false alarm on the
+    examples would teach users to ignore the warnings)."""
+    from bowlrec.scene_input import check_scene_input
+    from bowlrec.spec.unit_sense import unit_warnings
+
+    files = [
+        p
+        for folder in ("paper", "bowler", "session")
+        for p in sorted((ROOT / "examples" / folder).glob("*.json"))
+    ]
+    assert len(files) >= 25
+    for path in files:
+        assert unit_warnings(check_scene_input(path).model) == [], path
+
+
+@pytest.mark.process  # runs git
+def test_the_tours_outputs_are_ignored_by_git() -> None:
+    """Every file the README's demo and tour write into the clone (their --out names) is in
+    .gitignore, so following the tour leaves `git status` clean."""
+    import re
+    import subprocess
+
+    readme = (ROOT / "README.md").read_text()
+    written = set(re.findall(r"(?:--out|--mcap|--rrd|-o) ((?!examples/)[\w./-]+\.\w+)", readme))
+    written |= {"bowlrec-demo/fig6-cases-9-10-14-16.png", "run.h5", "grid.parquet"}
+    assert {"run.csv", "run.mcap", "run.rrd", "fig6.png", "grid.csv"} <= written, written
+    ignored = subprocess.run(
+        ["git", "check-ignore", "--no-index", *sorted(written)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=False,
+    ).stdout.split()
+    assert set(ignored) == written

@@ -88,6 +88,7 @@ __all__ = [
     "freeze_balls",
     "job_context",
     "job_schema_text",
+    "job_unit_warnings",
     "latin_hypercube",
     "library_lookup",
     "load_job",
@@ -331,6 +332,42 @@ def job_context(
         replay_dir=None if replay_dir is None else str(replay_dir),
         formats=tuple(job.formats),
     )
+
+
+def job_unit_warnings(job: JobSpec, *, base_dir: str | Path = ".") -> list[str]:
+    """The base scene's values that look typed in another unit, and every listed or range-end
+    value of a swept field that does (:mod:`bowlrec.spec.unit_sense`), each once, before the
+    first run; none when the base scene silences them (``options.unit_warnings: false``) or
+    cannot be read (the job's own check then says why)."""
+    from bowlrec.spec.unit_sense import RULES, unit_warnings
+
+    try:
+        base = _base(job, Path(base_dir), _no_library_ball)
+        model = _model(base.bowler).model_validate(base.data)
+    except (JobError, ValidationError):
+        return []
+    options = getattr(model, "options", None)
+    if options is None or not options.unit_warnings:
+        return []
+    out = [f"base: {line}" for line in unit_warnings(model)]
+    rules = {r.path: r for r in RULES}
+    for b, block in enumerate(job.blocks()):
+        if isinstance(block, ScenesSweep | PointsSweep):
+            continue
+        for path, axis in block.axes.items():
+            rule = rules.get(path.split("[")[0])
+            if rule is None or rule.norm != path.endswith("]"):
+                continue
+            values = [axis.low, axis.high] if isinstance(axis, Range) else axis_values(axis)
+            for value in values:
+                if isinstance(value, int | float) and not isinstance(value, bool):
+                    line = rule.check(abs(float(value)))
+                    if line is not None:
+                        out.append(
+                            f"sweep[{b}].axes[{path!r}]: {line} (options.unit_warnings: false "
+                            "in the base scene silences this)"
+                        )
+    return list(dict.fromkeys(out))
 
 
 def freeze_balls(job: JobSpec, ctx: JobContext) -> JobSpec:

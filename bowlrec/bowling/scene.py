@@ -126,7 +126,8 @@ class BowlerScene(SpecModel):
     lane: BowlerLane = Field(default_factory=BowlerLane, description="Lane geometry (ft, in).")
     pattern: str | KegelPattern | RectanglePattern = Field(
         default="paper_typical",
-        description="Oil pattern: a preset name (bowlrec patterns list) or a pattern sheet.",
+        description="Oil pattern: a preset name (`bowlrec patterns` lists them) or a pattern "
+        "sheet.",
     )
     oil_friction: OilFrictionMapping = Field(
         default_factory=OilFrictionMapping,

@@ -111,11 +111,18 @@ def load_scene_or_exit(path: Path, archive: Path | None = None) -> Any:
 def parse_scene_or_exit(path: Path, archive: Path | None = None) -> Any:
     """The file's scene through the one way in for a scene,
     :func:`bowlrec.scene_input.parse_scene_file`; a ``ball: NAME`` names a ball of the ball
-    library of ``archive`` (default: the user's archive), opened only for such a scene.
+    library of ``archive`` (default: the user's archive), opened only for such a scene. A
+    value that looks typed in another unit is a ``warning:`` line on stderr (:func:`warn`).
     Raises :class:`~bowlrec.errors.SceneInputError`, every line starting with the path, when
     the file is missing, unreadable or invalid; the application prints it as one ``error:``
     line per problem and exits 2."""
-    return parse_scene_file(path, archive_balls(archive))
+    return parse_scene_file(path, archive_balls(archive), warn=warn)
+
+
+def warn(line: str) -> None:
+    """One ``warning:`` line on stderr (shown with --quiet too: it is about the input, not
+    progress)."""
+    typer.echo(f"warning: {line}", err=True)
 
 
 def archive_balls(archive: Path | None) -> Any:

@@ -14,7 +14,15 @@ from bowlrec.archive.location import config_value
 from bowlrec.errors import BowlrecError, JobError
 
 from ._app import app
-from ._common import EXIT_INTERRUPTED, ArchiveOption, QuietOption, fail, interactive, open_archive
+from ._common import (
+    EXIT_INTERRUPTED,
+    ArchiveOption,
+    QuietOption,
+    fail,
+    interactive,
+    open_archive,
+    warn,
+)
 
 if TYPE_CHECKING:
     from bowlrec.batch import BatchProgress
@@ -134,6 +142,10 @@ def batch(
     if worker_writes not in ("auto", "yes", "no"):
         fail(f"--worker-writes: {worker_writes!r} must be auto, yes or no")
     spec = load_job(job)
+    from bowlrec.batch.job import job_unit_warnings
+
+    for line in job_unit_warnings(spec, base_dir=job.parent):
+        warn(f"{job}: {line}")
     store = None if no_archive else open_archive(archive)
     prefix = out if out is not None else Path(f"{job.stem}-summary")
     if no_archive and spec.formats:

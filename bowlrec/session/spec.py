@@ -167,7 +167,8 @@ class SessionSpec(SpecModel):
     description: str = Field(default="")
     pattern: str | KegelPattern | RectanglePattern = Field(
         default="house_shot_approx",
-        description="Oil pattern: a preset name (bowlrec patterns list) or a pattern sheet.",
+        description="Oil pattern: a preset name (`bowlrec patterns` lists them) or a pattern "
+        "sheet.",
     )
     games: int = Field(default=3, ge=1, le=MAX_GAMES, description=f"Games, in [1, {MAX_GAMES}].")
     seed: int = Field(default=0, ge=0, description="Seed of the release scatter, >= 0.")

@@ -79,15 +79,26 @@ class Options(SpecModel):
         ),
     )
 
+    unit_warnings: bool = Field(
+        default=True,
+        description=(
+            "Warn when a value looks typed in another unit (speed_mps = 17: did you mean 17 "
+            "mph?); false silences the warnings for this scene (bowlrec/spec/unit_sense.py)."
+        ),
+    )
+
     @model_serializer(mode="wrap")
     def _without_pins_off(
         self, handler: SerializerFunctionWrapHandler, info: SerializationInfo
     ) -> dict[str, object]:
-        """The options as stored, without ``pins`` when it is off: a scene without pin action
-        dumps (and so hashes, in a session's ID) as it did before the field existed."""
+        """The options as stored, without ``pins`` when it is off and without
+        ``unit_warnings`` when on: a scene at those defaults dumps (and so hashes, in a
+        session's ID) as it did before the fields existed."""
         data: dict[str, object] = handler(self)
         if self.pins is False:
             data.pop("pins", None)
+        if self.unit_warnings:
+            data.pop("unit_warnings", None)
         return data
 
     @property
