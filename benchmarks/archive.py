@@ -90,6 +90,14 @@ SINGLE_EVERY = 50
 #: the summary floats jittered per synthetic run (every float metric of the segment format)
 SUMMARY_JITTER = SUMMARY_FLOAT_COLUMNS
 
+#: the archive path against the kernel (issue 32): ``bowlrec batch --archive`` of a summary job
+PATH_JOB = "case16-summary.json"
+PATH_RUNS = 200_000
+PATH_REPEATS = 5
+PATH_TARGET_PCT = 80.0
+PATH_TARGET_RATE = 20_000.0
+PATH_KERNEL_FLOOR = 25_000.0
+
 TARGETS: dict[str, tuple[str, float, str]] = {
     # key: (what, limit, unit)
     "bytes_per_run": ("summary-only run on disk (segments + index), bytes/run", 1024.0, "B"),
@@ -750,6 +758,125 @@ def _datasets(path: Path) -> list[dict[str, Any]]:
         },
         *rows,
     ]
+
+
+# -- the archive path against the kernel -----------------------------------------------------
+
+
+def archive_path(
+    n_runs: int, repeats: int, log: Callable[[str], None], tmp: Path | None = None
+) -> dict[str, Any]:
+    """``bowlrec batch --archive`` of a summary-only job against the kernel, interleaved.
+
+    Each round measures, in this order: the kernel alone (``run_batch`` on 2 numba threads,
+    100,000 of the job's deliveries packed in memory, median of 3), the batch with a fresh
+    archive (``run_job``, 2 worker processes: segments written, fsynced, registered), the batch
+    without an archive, the kernel again. A round's ratio is the archive path's steady rate
+    (between 10 % and 90 % of the runs, worker start-up excluded) over the mean of the kernel
+    measured around it; the result is the median over the rounds of each number."""
+    from benchmarks.pipeline import _job, _packed, batch_row, kernel_rate
+    from bowlrec.archive import Archive
+
+    job = _job(PATH_JOB, n_runs)
+    packed = _packed(job, min(n_runs, 100_000))
+    own = tmp is None
+    root = Path(tempfile.mkdtemp(prefix="bowlrec-archive-path-", dir="/tmp")) if own else tmp
+    assert root is not None
+    rounds: list[dict[str, Any]] = []
+    try:
+        for rep in range(repeats):
+            before = kernel_rate(packed)
+            archive = Archive(root / f"a{rep}")
+            arch = batch_row("batch --archive", job, archive, n_runs)
+            seg_bytes = sum(p.stat().st_size for p in archive.segments_dir.glob("*.h5"))
+            idx_bytes = archive.index_path.stat().st_size
+            archive.close()
+            shutil.rmtree(root / f"a{rep}", ignore_errors=True)
+            plain = batch_row("batch --no-archive", job, None, n_runs)
+            after = kernel_rate(packed)
+            kernel = (before + after) / 2
+            rounds.append(
+                {
+                    "kernel_before_per_s": before,
+                    "kernel_after_per_s": after,
+                    "kernel_per_s": kernel,
+                    "archive_steady_per_s": arch["steady_per_s"],
+                    "archive_whole_per_s": arch["whole_job_per_s"],
+                    "no_archive_steady_per_s": plain["steady_per_s"],
+                    "ratio_pct": 100 * arch["steady_per_s"] / kernel,
+                    "ratio_whole_pct": 100 * arch["whole_job_per_s"] / kernel,
+                    "no_archive_pct": 100 * plain["steady_per_s"] / kernel,
+                    "segment_bytes_per_run": seg_bytes / n_runs,
+                    "index_bytes_per_run": idx_bytes / n_runs,
+                    "write_us_per_run": arch["write_s_per_run"] * 1e6,
+                }
+            )
+            r = rounds[-1]
+            log(
+                f"  round {rep + 1}: kernel {before:,.0f} / {after:,.0f} per s, archive path "
+                f"{r['archive_steady_per_s']:,.0f} per s ({r['ratio_pct']:.1f} %), no archive "
+                f"{r['no_archive_steady_per_s']:,.0f} per s"
+            )
+    finally:
+        if own:
+            shutil.rmtree(root, ignore_errors=True)
+    med = {k: round(statistics.median(r[k] for r in rounds), 1) for k in rounds[0]}
+    return {
+        "job": PATH_JOB,
+        "runs": n_runs,
+        "repeats": repeats,
+        "rounds": [{k: round(v, 1) for k, v in r.items()} for r in rounds],
+        "median": med,
+        "met_pct": med["ratio_pct"] >= PATH_TARGET_PCT,
+        "met_rate": med["archive_steady_per_s"] >= PATH_TARGET_RATE
+        or med["kernel_per_s"] < PATH_KERNEL_FLOOR,
+    }
+
+
+def path_markdown(p: dict[str, Any]) -> list[str]:
+    """The archive path section of the report."""
+    m = p["median"]
+    lines = [
+        "## The archive path against the kernel",
+        "",
+        f"`bowlrec batch --archive` of `benchmarks/jobs/{p['job']}` ({p['runs']:,} summary-only "
+        "runs, 2 worker processes, a fresh archive each round: segments written, fsynced and "
+        "registered) against the kernel alone (`run_batch`, 2 numba threads, 100,000 of the "
+        "job's deliveries packed in memory), interleaved in one process tree: kernel, archive "
+        f"path, batch without an archive, kernel; {p['repeats']} rounds. Steady rate: between "
+        "10 % and 90 % of the runs. A round's ratio uses the mean of the kernel measured around "
+        "it; every number below is the median over the rounds.",
+        "",
+        "| measured | median |",
+        "|---|---:|",
+        f"| kernel alone, deliveries/s | {m['kernel_per_s']:,.0f} |",
+        f"| batch --archive, steady, runs/s | {m['archive_steady_per_s']:,.0f} |",
+        f"| batch --archive, whole job, runs/s | {m['archive_whole_per_s']:,.0f} |",
+        f"| batch --no-archive, steady, runs/s | {m['no_archive_steady_per_s']:,.0f} |",
+        f"| **archive path / kernel** | **{m['ratio_pct']:.1f} %** |",
+        f"| archive path / kernel, whole job | {m['ratio_whole_pct']:.1f} % |",
+        f"| no archive / kernel | {m['no_archive_pct']:.1f} % |",
+        f"| segment bytes per run | {m['segment_bytes_per_run']:.0f} |",
+        f"| index bytes per run | {m['index_bytes_per_run']:.0f} |",
+        f"| worker time storing a run (segment: columns, digests, HDF5, fsync), µs | "
+        f"{m['write_us_per_run']:.1f} |",
+        "",
+        f"Target: archive path >= {PATH_TARGET_PCT:.0f} % of the kernel, and >= "
+        f"{PATH_TARGET_RATE:,.0f} runs/s when the kernel does >= {PATH_KERNEL_FLOOR:,.0f}/s: "
+        f"ratio {'met' if p['met_pct'] else '**missed**'}, rate "
+        f"{'met' if p['met_rate'] else '**missed**'}.",
+        "",
+        "| round | kernel before | kernel after | archive path | ratio | no archive |",
+        "|---:|---:|---:|---:|---:|---:|",
+    ]
+    for i, r in enumerate(p["rounds"], 1):
+        lines.append(
+            f"| {i} | {r['kernel_before_per_s']:,.0f} | {r['kernel_after_per_s']:,.0f} | "
+            f"{r['archive_steady_per_s']:,.0f} | {r['ratio_pct']:.1f} % | "
+            f"{r['no_archive_steady_per_s']:,.0f} |"
+        )
+    lines.append("")
+    return lines
 
 
 def _targets(d: dict[str, Any]) -> list[dict[str, Any]]:

@@ -157,7 +157,20 @@ def register_segment(
     )
     rows = index_rows(con, int(cur.lastrowid or 0), columns)
     dead_ids = set(dead)
-    rows = [r for r in rows if r[0] not in dead_ids]
+    if dead_ids:
+        rows = [r for r in rows if r[0] not in dead_ids]
+    # the common case first: no run of the segment is indexed yet, so the rows go in as they
+    # are (the unique run-ID index checks that); only when one is indexed already (a duplicate
+    # copy) are the rows split into fresh and shadowed
+    con.execute("SAVEPOINT register_runs")
+    try:
+        con.executemany(INSERT_RUN, rows)
+    except sqlite3.IntegrityError:
+        con.execute("ROLLBACK TO register_runs")
+    else:
+        con.execute("RELEASE register_runs")
+        return len(rows), 0
+    con.execute("RELEASE register_runs")
     existing: set[str] = set()
     ids = [r[0] for r in rows]
     for i in range(0, len(ids), 900):  # SQLite's default limit on bound parameters is 999
