@@ -13,6 +13,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .index import RUN_TABLE_COLUMNS
 from .segment_file import SegmentFile
 from .segment_format import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS, SegmentInfo
@@ -33,11 +35,17 @@ INSERT_RUN = (
 
 
 def _texts(arr: Any) -> list[str]:
+    n = int(arr.shape[0])
+    if n and bool((arr == arr[0]).all()):  # a column a batch's segment shares (name, pattern)
+        return [bytes(arr[0]).decode()] * n
     return [b.decode() for b in arr.tolist()]
 
 
 def _floats(arr: Any) -> list[float | None]:
-    return [None if v != v else v for v in arr.tolist()]  # NaN stands for None
+    values: list[float | None] = arr.tolist()
+    if not np.isnan(arr).any():
+        return values
+    return [None if v != v else v for v in values]  # NaN stands for None
 
 
 def _ball_parts(refs: list[str]) -> tuple[list[str | None], list[int | None]]:

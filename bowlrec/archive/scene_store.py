@@ -5,9 +5,11 @@ A field is named by its path: a JSON array of object keys (strings) and list ind
 (integers) from the scene's root, ``["delivery", "omega_radps", 1]``; the empty path is the
 whole scene. A run's overrides replace the values at their paths, in order. :func:`diff` finds
 the overrides of a scene against the base: objects with the same keys in the same order and
-lists of the same length are compared member by member, anything else that differs (another
-type, another key set, a list of another length) is replaced whole, so no override ever
-deletes a field.
+lists of the same length of up to :data:`VECTOR_LENGTH` members (vectors) are compared member by
+member, anything else that differs (another type, another key set, a longer list such as a
+friction grid's values) is replaced whole, so no override ever deletes a field. Equal
+subtrees are found by Python's own comparison, where numbers compare by value (``1 == 1.0``):
+scenes serialized from one model write a field's numbers alike, so this loses nothing there.
 
 The scene text a reader rebuilds is ``pydantic_core.to_json`` of the base with the overrides
 applied: the compact JSON ``Scene.model_dump_json()`` writes, byte for byte, for scenes stored
@@ -25,10 +27,13 @@ import numpy as np
 import pydantic_core
 from numpy.typing import NDArray
 
-__all__ = ["Path", "apply", "diff", "path_text", "scene_text", "scene_texts"]
+__all__ = ["VECTOR_LENGTH", "Path", "apply", "diff", "path_text", "scene_text", "scene_texts"]
 
 #: a field's path: object keys and list indices from the scene's root
 Path = list[str | int]
+#: lists up to this long are compared member by member (a vector's components); longer ones
+#: that differ are stored whole
+VECTOR_LENGTH = 4
 
 
 def path_text(path: Sequence[str | int]) -> str:
@@ -44,17 +49,16 @@ def diff(base: Any, doc: Any) -> list[tuple[Path, Any]]:
 
 
 def _diff(a: Any, b: Any, path: Path, out: list[tuple[Path, Any]]) -> None:
-    if type(a) is dict and type(b) is dict:
-        if list(a) == list(b):
-            for key in a:
-                _diff(a[key], b[key], [*path, key], out)
-            return
-    elif type(a) is list and type(b) is list:
-        if len(a) == len(b):
-            for i, (x, y) in enumerate(zip(a, b, strict=True)):
-                _diff(x, y, [*path, i], out)
-            return
-    elif type(a) is type(b) and a == b:
+    same_type = type(a) is type(b)
+    if same_type and a == b:  # whole subtrees at once, in C
+        return
+    if same_type and type(a) is dict and list(a) == list(b):
+        for key in a:
+            _diff(a[key], b[key], [*path, key], out)
+        return
+    if same_type and type(a) is list and len(a) == len(b) <= VECTOR_LENGTH:
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _diff(x, y, [*path, i], out)
         return
     out.append((path, b))
 
@@ -83,12 +87,12 @@ def scene_text(
     """One run's scene (compact JSON) from the segment's base, its column overrides (``values``
     at ``paths``; NaN: not overridden) and its other overrides (a JSON array of
     ``[path, value]`` pairs, or empty)."""
-    doc = json.loads(base_json)
+    doc = pydantic_core.from_json(base_json)
     for path, value in zip(paths, values, strict=True):
         if not math.isnan(value):
             doc = apply(doc, path, float(value))
     if overrides:
-        for path, value in json.loads(overrides):
+        for path, value in pydantic_core.from_json(overrides):
             doc = apply(doc, path, value)
     return pydantic_core.to_json(doc).decode()
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pydantic_core
 from numpy.typing import NDArray
 
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
@@ -444,7 +445,7 @@ def scene_columns(scenes: Sequence[bytes]) -> dict[str, NDArray[Any]]:
     is the base, every run stores its overrides against it as JSON (see :mod:`.scene_store`)."""
     n = len(scenes)
     base_raw = scenes[0]
-    base = json.loads(base_raw)
+    base = pydantic_core.from_json(base_raw)
     pieces = []
     for raw in scenes:
         if raw == base_raw:
