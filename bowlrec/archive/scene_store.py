@@ -6,10 +6,10 @@ A field is named by its path: a JSON array of object keys (strings) and list ind
 whole scene. A run's overrides replace the values at their paths, in order. :func:`diff` finds
 the overrides of a scene against the base: objects with the same keys in the same order and
 lists of the same length of up to :data:`VECTOR_LENGTH` members (vectors) are compared member by
-member, anything else that differs (another type, another key set, a longer list such as a
-friction grid's values) is replaced whole, so no override ever deletes a field. Equal
-subtrees are found by Python's own comparison, where numbers compare by value (``1 == 1.0``):
-scenes serialized from one model write a field's numbers alike, so this loses nothing there.
+member, anything else that differs (another type, another key set or key order, a longer list
+such as a friction grid's values) is replaced whole, so no override ever deletes a field.
+Subtrees are equal when their JSON is: the same types all the way down (``1`` and ``1.0``
+differ, and so do ``true`` and ``1``), the same keys in the same order and equal values.
 
 The scene text a reader rebuilds is ``pydantic_core.to_json`` of the base with the overrides
 applied: the compact JSON ``Scene.model_dump_json()`` writes, byte for byte, for scenes stored
@@ -48,9 +48,20 @@ def diff(base: Any, doc: Any) -> list[tuple[Path, Any]]:
     return out
 
 
+def _same_json(a: Any, b: Any) -> bool:
+    """Whether two equal (``a == b``) parsed JSON values also write the same JSON text."""
+    if type(a) is not type(b):
+        return False
+    if type(a) is dict:
+        return list(a) == list(b) and all(_same_json(a[k], b[k]) for k in a)
+    if type(a) is list:
+        return all(map(_same_json, a, b))
+    return True
+
+
 def _diff(a: Any, b: Any, path: Path, out: list[tuple[Path, Any]]) -> None:
     same_type = type(a) is type(b)
-    if same_type and a == b:  # whole subtrees at once, in C
+    if same_type and a == b and _same_json(a, b):  # values in C, then their types and order
         return
     if same_type and type(a) is dict and list(a) == list(b):
         for key in a:
