@@ -13,7 +13,7 @@ import pydantic_core
 import pytest
 
 from bowlrec.archive import Archive, SegmentFile
-from bowlrec.archive.scene_store import apply, diff, scene_text
+from bowlrec.archive.scene_store import apply, scene_text
 from bowlrec.batch import JobSpec, run_job
 from bowlrec.errors import RunDamagedError
 
@@ -27,53 +27,42 @@ BASE: dict[str, Any] = {
 }
 
 
-def _changed(doc: dict[str, Any]) -> list[dict[str, Any]]:
-    """Scenes that differ from ``doc`` in every way the diff distinguishes."""
-    out = []
-    a = copy.deepcopy(doc)
-    a["delivery"]["omega_radps"][1] = 30.5  # one vector component
-    a["name"] = "other ✓"  # a string, not ASCII
-    out.append(a)
-    b = copy.deepcopy(doc)
-    b["lane"]["friction"]["mu"][3] = 0.2  # a long list: replaced whole
-    b["ball"]["axis_2"] = [1.0, 0.0, 0.0]  # null -> a list
-    out.append(b)
-    c = copy.deepcopy(doc)
-    del c["ball"]["axis_2"]  # another key set: the object replaced whole
-    c["delivery"]["omega_radps"] = [1.0, 2.0]  # another length
-    out.append(c)
-    d = copy.deepcopy(doc)
-    d["extra"] = {"x": 1}  # a key the base lacks: the whole scene
-    out.append(d)
-    e = copy.deepcopy(doc)
-    e["delivery"]["speed_mps"] = 8  # another type (int for float)
-    out.append(e)
-    return out
-
-
-def test_a_scene_is_its_base_with_its_overrides() -> None:
+def test_a_scene_is_its_base_with_its_columns_or_stored_whole() -> None:
+    """Column values replace the base's at their paths (NaN: the base's), in the base's key
+    order and number texts; a scene stored whole reads back as its bytes."""
     base_json = pydantic_core.to_json(BASE)
-    assert diff(BASE, copy.deepcopy(BASE)) == []
-    for doc in _changed(BASE):
-        changes = diff(BASE, doc)
-        assert changes
-        text = scene_text(base_json, [], [], pydantic_core.to_json([[p, v] for p, v in changes]))
-        assert text == pydantic_core.to_json(doc).decode()
-    changes = diff(BASE, _changed(BASE)[1])
-    assert [p for p, _ in changes] == [["ball", "axis_2"], ["lane", "friction", "mu"]]
-    assert [p for p, _ in diff(BASE, _changed(BASE)[3])] == [[]]
-    # column overrides first (NaN: not overridden), then the JSON ones
     text = scene_text(
         base_json,
         [["delivery", "speed_mps"], ["delivery", "omega_radps", 2]],
         [7.25, float("nan")],
-        b'[[["name"],"x"]]',
+        b"",
     )
     doc = json.loads(text)
     assert (doc["delivery"]["speed_mps"], doc["delivery"]["omega_radps"][2]) == (7.25, 7.0)
-    assert doc["name"] == "x"
+    assert list(doc) == list(BASE) and text == pydantic_core.to_json(doc).decode()
+    whole = '{"name":"other \u2713","delivery":{"speed_mps":8}}'.encode()
+    assert scene_text(base_json, [["delivery", "speed_mps"]], [float("nan")], whole) == (
+        whole.decode()
+    )
     with pytest.raises(KeyError):
         apply(copy.deepcopy(BASE), ["delivery", "nothing", 1], 1.0)
+
+
+def test_a_builders_segment_stores_only_scenes_that_differ() -> None:
+    """The first run's scene is the base; a run with the same scene stores nothing of it, any
+    other its scene whole; every scene reads back as the text it was stored from."""
+    from bowlrec.archive.segment import scene_columns
+
+    texts = [pydantic_core.to_json(BASE)]
+    other = copy.deepcopy(BASE)
+    other["delivery"]["speed_mps"] = 8  # an int where the base has a float: another text
+    texts += [texts[0], pydantic_core.to_json(other)]
+    cols = scene_columns(texts)
+    offsets = cols["override_offsets"].tolist()
+    assert offsets[:3] == [0, 0, 0] and offsets[3] == len(texts[2])
+    for i, raw in enumerate(texts):
+        whole = cols["override_json"][offsets[i] : offsets[i + 1]].tobytes()
+        assert scene_text(cols["base_json"].tobytes(), [], [], whole) == raw.decode()
 
 
 def _sweep_job(n: int) -> JobSpec:

@@ -25,14 +25,13 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pydantic_core
 from numpy.typing import NDArray
 
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 
 from .pin_records import pin_index_columns
 from .scene_store import Path as FieldPath
-from .scene_store import diff, path_text
+from .scene_store import path_text
 from .segment_format import (
     DIGEST_ALGORITHM,
     EVENT_FIELDS,
@@ -442,24 +441,11 @@ def _codes(values: Sequence[str], table: Sequence[str]) -> tuple[NDArray[np.uint
 
 def scene_columns(scenes: Sequence[bytes]) -> dict[str, NDArray[Any]]:
     """The ``scene`` group of the runs whose scenes (compact JSON) are ``scenes``: the first one
-    is the base, every run stores its overrides against it as JSON (see :mod:`.scene_store`)."""
+    is the base, and a run whose scene differs from it stores its scene whole (see
+    :mod:`.scene_store`)."""
     n = len(scenes)
     base_raw = scenes[0]
-    base = pydantic_core.from_json(base_raw)
-    pieces = []
-    for raw in scenes:
-        if raw == base_raw:
-            pieces.append(b"")
-            continue
-        changes = diff(base, json.loads(raw))
-        pieces.append(
-            json.dumps(
-                [[p, v] for p, v in changes], separators=(",", ":"), ensure_ascii=False
-            ).encode()
-            if changes
-            else b""
-        )
-    override_bytes, override_offsets = _concat(pieces)
+    override_bytes, override_offsets = _concat([b"" if s == base_raw else s for s in scenes])
     return {
         "base_json": np.frombuffer(base_raw, dtype=np.uint8).copy(),
         "override_paths": np.zeros(0, dtype="S1"),

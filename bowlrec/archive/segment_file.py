@@ -69,9 +69,11 @@ _MEANINGS = {
     "override_paths": "field paths (JSON arrays of keys and indices) of override_values' columns",
     "override_values": "run i's value of the field override_paths[j] (the units of that scene "
     "field; NaN: not overridden)",
-    "override_json": "each run's other overrides, a JSON array of [path, value] pairs "
-    "(UTF-8 bytes of all runs, concatenated; empty: none)",
-    "override_offsets": "run i's overrides are override_json[offsets[i]:offsets[i + 1]]",
+    "override_json": "the scenes of the runs that differ from the base otherwise than in "
+    "override_values, whole, compact JSON (UTF-8 bytes of all runs, concatenated; empty: the "
+    "base with the run's override_values)",
+    "override_offsets": "run i's scene is override_json[offsets[i]:offsets[i + 1]] when that is "
+    "not empty",
     "outcome": "how the run ended",
     "scene_json": "scenes as given, compact JSON (UTF-8 bytes of all runs, concatenated)",
     "message": "summary messages (UTF-8 bytes of all runs, concatenated)",
