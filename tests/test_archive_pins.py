@@ -167,7 +167,7 @@ def test_pins_round_trip_every_value_and_array(tmp_path: Path, plain_run: RunDat
     for i, pins in enumerate(outcomes):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
-        assert stored.attrs["format_version"] == "2.2"
+        assert stored.attrs["format_version"] == "2.3"
         engine = stored.attrs.get("pin_engine_version")
         assert engine == (None if pins.action is None else "mujoco 3.17.0")
     with SegmentFile(archive.locate(_rid(1))[2]) as seg:  # type: ignore[index]
@@ -185,7 +185,7 @@ def test_runs_with_and_without_pins_share_a_segment_and_compaction_carries_them(
     tmp_path: Path, plain_run: RunData
 ) -> None:
     """Racks of any size, leaves of any length and runs without pins in one segment; merged by
-    compaction into one 2.2 segment, every run reads back equal and checked."""
+    compaction into one 2.3 segment, every run reads back equal and checked."""
     archive = Archive(tmp_path / "a")
     outcomes: list[PinOutcome | None] = [
         _outcome(),
@@ -203,7 +203,7 @@ def test_runs_with_and_without_pins_share_a_segment_and_compaction_carries_them(
     for i, pins in enumerate([*outcomes, None]):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
-        assert stored.attrs["format_version"] == "2.2"
+        assert stored.attrs["format_version"] == "2.3"
     assert archive.repair()["damaged_runs"] == []
 
 
@@ -234,10 +234,11 @@ def test_a_summary_only_run_keeps_where_the_pins_came_to_rest(
     assert standing_offsets_m(back, 18.288, 1.0541) == standing_offsets_m(pins, 18.288, 1.0541)
 
 
-def test_a_run_without_pins_is_stored_byte_for_byte_as_before(tmp_path: Path) -> None:
-    """The committed 2.0 fixture's runs, written again by this code: every dataset and its units
-    equal to the fixture's (digests included), format_version 2.0; with a session's record
-    groups 2.1."""
+def test_a_run_without_pins_is_stored_as_before_but_for_the_2_3_changes(tmp_path: Path) -> None:
+    """The committed 2.0 fixture's runs, written again by this code (format 2.3): every dataset
+    of the fixture that 2.3 keeps is equal, units included; the ones 2.3 stores otherwise (the
+    scenes, the per-run digests, event kinds and phases as text) read back equal; with a
+    session's record groups, 2.3 too."""
     archive = Archive(tmp_path / "a")
     original = next((FIXTURES / "archive-v2" / "segments").glob("*.h5"))
     with SegmentFile(original) as seg:
@@ -262,21 +263,33 @@ def test_a_run_without_pins_is_stored_byte_for_byte_as_before(tmp_path: Path) ->
         return out
 
     new, old = datasets(info.path), datasets(original)
-    assert new.keys() == old.keys()
-    for name in old:
-        if name == "_version":
-            assert new[name] == old[name] == "2.0"
-            continue
+    assert (new.pop("_version"), old.pop("_version")) == ("2.3", "2.0")
+    stored_otherwise = {"runs/digest", "runs/scene_json", "runs/scene_json_offsets"}
+    stored_otherwise |= {"events/kind", "events/phase"}
+    assert old.keys() - new.keys() == stored_otherwise - {"events/kind", "events/phase"}
+    assert new.keys() - old.keys() == {
+        "scene/base_json",
+        "scene/override_paths",
+        "scene/override_values",
+        "scene/override_json",
+        "scene/override_offsets",
+        "digest/blocks",
+    }
+    for name in old.keys() - stored_otherwise:
         (a, a_attrs), (b, b_attrs) = new[name], old[name]
         assert a.dtype == b.dtype and np.array_equal(a, b), name
         assert a_attrs["units"] == b_attrs["units"], name
+    with SegmentFile(info.path) as seg:
+        again = [r.to_record() for r in seg.read_all()]
+    for a_rec, b_rec in zip(again, records, strict=True):
+        assert a_rec.scene_json == b_rec.scene_json and a_rec.events == b_rec.events
     with_session = dataclasses.replace(
         records[0], records={"session": {"state_json": np.frombuffer(b"{}", dtype=np.uint8)}}
     )
     builder = archive.builder()
     builder.append(with_session)
     with SegmentFile(archive.seal(builder).path) as seg:
-        assert seg.provenance["format_version"] == "2.1"
+        assert seg.provenance["format_version"] == "2.3"
 
 
 @pytest.mark.parametrize("group", [g for g in PIN_GROUPS])
@@ -475,6 +488,37 @@ def test_committed_v2_2_fixture_archive_reads(tmp_path: Path) -> None:
     assert _names(archive.list_runs(strikes=True)) == ["fixture-pins", "fixture-pins-summary"]
 
 
+def test_committed_v2_3_fixture_archive_reads(tmp_path: Path) -> None:
+    """tests/fixtures/archive-v2.3 (tests/fixtures/make_fixture_v23.py): a batch sweep's
+    segment (the swept values as override columns, one digest block) and a builder's segment
+    (JSON overrides, a recorded run: a digest per run) read back as written: the scene text,
+    summary, events and samples; a migration leaves them alone. If this fails, the on-disk
+    format changed: see test_committed_v2_fixture_archive_still_reads in test_archive.py."""
+    from bowlrec.archive.migrate import migrate
+
+    expected = json.loads((FIXTURES / "archive-v2.3.json").read_text())
+    copy = shutil.copytree(FIXTURES / "archive-v2.3", tmp_path / "archive")
+    archive = Archive(copy, create=False)
+    assert archive.repair()["damaged_runs"] == []
+    assert len(archive) == len(expected) == 9
+    blocks = set()
+    for rid, want in expected.items():
+        stored = archive.load(rid)
+        assert stored.attrs["format_version"] == "2.3"
+        assert stored.attrs["scene_json"] == want["scene_json"]
+        assert stored.scene.name == want["name"]
+        assert stored.trajectory.summary.to_dict() == want["summary"]
+        assert len(stored.trajectory.events) == want["events"]
+        assert stored.trajectory.n_samples == want["samples"]
+        located = archive.locate(rid)
+        assert located is not None
+        with SegmentFile(located[2]) as seg:
+            blocks.add(seg.block_runs)
+    assert blocks == {1, 256}
+    report = migrate(copy)
+    assert (report["segments_rewritten"], report["runs"]) == (0, 9)
+
+
 def _names(rows: list[dict[str, Any]]) -> list[str]:
     return sorted(r["name"] for r in rows)
 
@@ -482,30 +526,40 @@ def _names(rows: list[dict[str, Any]]) -> list[str]:
 def test_the_chain_of_formats_from_1_0_reads_into_one_archive(
     tmp_path: Path, plain_run: RunData
 ) -> None:
-    """Format 1.0 migrated, then 2.0, 2.1 and 2.2 segments (the committed fixtures) beside it
-    and a run with pins written now: every run indexed and read back, and compaction merges
-    them all into segments of this version that read back the same."""
+    """Format 1.0 migrated, then 2.0, 2.1, 2.2 and 2.3 segments (the committed fixtures) beside
+    it and a run with pins written now: every run indexed and read back, and the migration of
+    the 2.x archive rewrites every segment of 2.0-2.2 as 2.3: each run reads back the same."""
     from bowlrec.archive.migrate import migrate
 
     root = shutil.copytree(FIXTURES / "archive-v1", tmp_path / "archive")
     assert migrate(root)["runs"] == 2
-    for older in ("archive-v2", "archive-v2.1", "archive-v2.2"):
+    for older in ("archive-v2", "archive-v2.1", "archive-v2.2", "archive-v2.3"):
         for seg in (FIXTURES / older / "segments").glob("*.h5"):
             shutil.copy(seg, root / "segments" / seg.name)
     archive = Archive(root)
     archive.reindex()
     archive.add(_with_pins(plain_run, _outcome(), _rid(1)), wall_time_s=0.0)
     rows = archive.list_runs(limit=None)
-    assert len(rows) == 2 + 2 + 2 + 3 + 1
+    assert len(rows) == 2 + 2 + 2 + 3 + 9 + 1
     before = {r["run_id"]: archive.load(r["run_id"]) for r in rows}
     versions = sorted(s.attrs["format_version"] for s in before.values())
-    assert versions == ["2.0"] * 4 + ["2.1"] * 2 + ["2.2"] * 4
+    assert versions == ["2.0"] * 2 + ["2.1"] * 2 + ["2.2"] * 3 + ["2.3"] * 12
     assert archive.repair()["damaged_runs"] == []
-    archive.compact()
+    archive.close()
+    report = migrate(root)
+    assert (report["segments_rewritten"], report["segments_left"], report["runs"]) == (3, 0, 19)
+    archive = Archive(root, create=False)
     for rid, old in before.items():
         new = archive.load(rid)
+        assert new.attrs["format_version"] == "2.3"
         _assert_same_pins(new.trajectory.pins, old.trajectory.pins)
         assert new.trajectory.summary == old.trajectory.summary
+        assert new.trajectory.events == old.trajectory.events
+        assert new.trajectory.n_samples == old.trajectory.n_samples
+        np.testing.assert_array_equal(new.trajectory.position_m, old.trajectory.position_m)
         assert new.scene == old.scene
+        assert new.attrs["scene_json"] == old.attrs["scene_json"]
         assert set(new.records) == set(old.records)
+    assert archive.repair()["damaged_runs"] == []
+    assert migrate(root)["segments_rewritten"] == 0
     assert sorted(r["pinfall"] or 0 for r in archive.list_runs(limit=None))[-3:] == [9, 10, 10]

@@ -93,7 +93,7 @@ def test_runs_list_filters_show_export_and_rm(tmp_path: Path) -> None:
     assert shown["index"]["run_id"] == ids[7.0]
     assert shown["scene"]["delivery"]["speed_mps"] == 7.0
     assert [e["kind"] for e in shown["events"]][-1] == "pins"
-    assert shown["provenance"]["format_version"] == "2.0"
+    assert shown["provenance"]["format_version"] == "2.3"
     assert shown["provenance"]["bowler_layer_version"] == "3" and shown["warnings"] == []
     h5 = tmp_path / "out.h5"
     _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(h5))
@@ -292,7 +292,7 @@ def test_archive_migrate_converts_the_v1_fixture(tmp_path: Path) -> None:
     assert "format 1.0 -> 2.0: 2 run(s)" in out and "v1-archive" in out
     rows = json.loads(_ok("runs", "list", "-a", str(copy), "--json"))
     assert sorted(r["name"] for r in rows) == ["fixture-summary", "fixture-trajectory"]
-    assert "already format 2.0" in _ok("archive", "migrate", str(copy))
+    assert "is format 2.0 (2 runs): 0 segment(s)" in _ok("archive", "migrate", str(copy))
 
 
 def test_runs_show_flags_a_run_made_before_the_current_bowler_layer(

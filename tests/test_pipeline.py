@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import copy
 import csv
-import hashlib
 import json
 import math
 import time
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +20,7 @@ import pytest
 from bowlrec.archive import Archive, RunRecord, SegmentBuilder, SegmentFile
 from bowlrec.archive.balls import ball_sha
 from bowlrec.archive.run_id import canonical_plan, run_id
+from bowlrec.archive.scene_store import scene_texts
 from bowlrec.archive.store import pattern_label
 from bowlrec.batch import (
     METRIC_COLUMNS,
@@ -602,7 +603,9 @@ def test_engine_archives_every_ok_run(tmp_path: Path, workers: int) -> None:
 
 @pytest.mark.parametrize("rtol", [2e-4, 1e-9])
 def test_summary_runs_segment_equals_segment_builder_segment(tmp_path: Path, rtol: float) -> None:
-    """The fast path's columns and the records of the same runs make the same segment (with
+    """The fast path's columns and the records of the same runs make the same segment, but for
+    how the scenes are stored (the fast path: the swept values as override columns; the
+    builder: JSON overrides) and so the digests: the scenes read back as the same text (with
     case 16's own rtol = 1e-9 the scene JSON holds a number Python and pydantic write apart)."""
     job = mixed_job(rtol)
     ctx = job_context(job)
@@ -635,13 +638,29 @@ def test_summary_runs_segment_equals_segment_builder_segment(tmp_path: Path, rto
     runs.floats["wall_time_s"] = np.array([0.001 * i for i in ok])
     a, b = runs.columns(), builder.columns()
     assert a.keys() == b.keys()
+    assert a["_attrs"] == b["_attrs"]
     for group in a:
+        if group in ("_attrs", "scene", "digest"):
+            continue
         if group == "_terms":
             assert same_bits(a[group], b[group])
             continue
         assert a[group].keys() == b[group].keys(), group
-        for name in sorted(a[group], key=lambda k: k == "digest"):  # the digest last
+        for name in a[group]:
             assert same_bits(a[group][name], b[group][name]), f"{group}/{name}"
+    assert a["scene"]["override_paths"].size == len(ctx.fast_paths)
+    assert b["scene"]["override_paths"].size == 0
+    texts = [
+        scene_texts(
+            c["scene"]["base_json"].tobytes(),
+            [json.loads(p) for p in c["scene"]["override_paths"].tolist()],
+            c["scene"]["override_values"],
+            c["scene"]["override_json"],
+            c["scene"]["override_offsets"],
+        )
+        for c in (a, b)
+    ]
+    assert texts[0] == texts[1] == [prepared[i].scene.model_dump_json() for i in ok]
 
 
 # -- 5. digests as docs/archive-format.md defines them ---------------------------------------------
@@ -659,34 +678,40 @@ def _rows(group: Any, names: list[str], a: int, b: int) -> bytes:
     return b"".join(b"".join(c[i] for c in cols) for i in range(b - a))
 
 
-def docs_digest(f: h5py.File, i: int) -> bytes:
-    """Run ``i``'s digest, following the text of docs/archive-format.md ("Digests")."""
-    h = hashlib.blake2b(digest_size=16)
+def docs_digest(f: h5py.File, k: int) -> int:
+    """Block ``k``'s digest, following the text of docs/archive-format.md ("Digests")."""
+    n, size = int(f.attrs["n_runs"]), int(f["digest"].attrs["block_runs"])
+    assert f["digest"].attrs["algorithm"] == "crc32"
+    a, b = k * size, min(n, (k + 1) * size)
+    crc = 0
 
-    def part(data: bytes, length: int) -> None:
-        h.update(length.to_bytes(8, "little"))
-        h.update(data)
+    def part(data: bytes) -> None:
+        nonlocal crc
+        crc = zlib.crc32(len(data).to_bytes(8, "little"), crc)
+        crc = zlib.crc32(data, crc)
 
-    # 1: runs/* (not digest, scene_json, scene_json_offsets), then summary/* (not message,
-    # message_offsets), each group's datasets in sorted name order: the entries' raw bytes
-    fixed = b""
-    for group, skip in (
-        ("runs", {"digest", "scene_json", "scene_json_offsets"}),
-        ("summary", {"message", "message_offsets"}),
-    ):
-        for name in sorted(f[group]):
-            if name not in skip:
-                fixed += _entry_bytes(f[group][name], i, i + 1)[0]
-    part(fixed, len(fixed))
-    # 2, 3: the scene JSON and message bytes
+    # 1, 2: the base scene and the override paths, as stored
+    part(f["scene/base_json"][()].tobytes())
+    part(np.ascontiguousarray(f["scene/override_paths"][()]).tobytes())
+    # 3: per run of the block, runs/* then summary/* (not message, message_offsets), each
+    # group's datasets in sorted name order: the entries' raw bytes
+    fixed = [
+        (group, name)
+        for group in ("runs", "summary")
+        for name in sorted(f[group])
+        if name not in ("message", "message_offsets")
+    ]
+    part(b"".join(_entry_bytes(f[g][name], i, i + 1)[0] for i in range(a, b) for g, name in fixed))
+    # 4: the block's rows of the override values
+    part(np.ascontiguousarray(f["scene/override_values"][a:b]).tobytes())
+    # 5, 6: the block's override JSON and message bytes
     for data, offsets in (
-        ("runs/scene_json", "runs/scene_json_offsets"),
+        ("scene/override_json", "scene/override_offsets"),
         ("summary/message", "summary/message_offsets"),
     ):
-        a, b = (int(v) for v in f[offsets][i : i + 2])
-        raw = f[data][a:b].tobytes()
-        part(raw, len(raw))
-    # 4: events, 5: samples, 6: torque rows; lengths in rows
+        lo, hi = (int(f[offsets][j]) for j in (a, b))
+        part(f[data][lo:hi].tobytes())
+    # 7: events, 8: samples, 9: torque rows
     groups = [
         ("events", ["kind", "mu", "phase", "t_s", "x_m", "y_m"]),
         (
@@ -711,16 +736,16 @@ def docs_digest(f: h5py.File, i: int) -> bytes:
             [t.decode() if isinstance(t, bytes) else str(t) for t in f["torques"].attrs["order"]],
         ),
     ]
-    # 7 and on: further groups with an offsets dataset, sorted; their other datasets sorted
-    known = {"runs", "summary", "events", "trajectory", "torques"}
+    # 10 and on: further groups with an offsets dataset, sorted; their other datasets sorted
+    known = {"runs", "summary", "events", "trajectory", "torques", "scene", "digest"}
     for g in sorted(f):
         if g not in known and "offsets" in f[g]:
-            groups.append((g, sorted(k for k in f[g] if k != "offsets")))
+            groups.append((g, sorted(name for name in f[g] if name != "offsets")))
     for g, names in groups:
-        a, b = (int(v) for v in f[g]["offsets"][i : i + 2])
-        present = [k for k in names if k in f[g]]
-        part(_rows(f[g], present, a, b) if present else b"", b - a)
-    return h.hexdigest().encode()
+        lo, hi = (int(f[g]["offsets"][j]) for j in (a, b))
+        present = [name for name in names if name in f[g]]
+        part(_rows(f[g], present, lo, hi) if present else b"")
+    return crc
 
 
 def test_digests_follow_the_documented_definition(tmp_path: Path) -> None:
@@ -744,16 +769,21 @@ def test_digests_follow_the_documented_definition(tmp_path: Path) -> None:
     seen = {"events": 0, "trajectory": 0, "torques": 0}
     for path in sorted(archive.segments_dir.glob("*.h5")):
         with h5py.File(path, "r") as f:
-            stored = f["runs/digest"][()]
-            assert stored.dtype == np.dtype("S32")
-            for i in range(int(f.attrs["n_runs"])):
-                assert docs_digest(f, i) == bytes(stored[i]), (path.name, i)
-                checked += 1
+            stored = f["digest/blocks"][()]
+            assert stored.dtype == np.dtype("uint32")
+            n, size = int(f.attrs["n_runs"]), int(f["digest"].attrs["block_runs"])
+            assert size == (1 if f["trajectory/offsets"][-1] else 256)
+            assert stored.shape == (-(-n // size),)
+            for k in range(stored.shape[0]):
+                assert docs_digest(f, k) == int(stored[k]), (path.name, k)
+            checked += n
+            for i in range(n):
                 for g in seen:
                     a, b = f[g]["offsets"][i : i + 2]
                     seen[g] += int(b > a)
         with SegmentFile(path) as seg:
-            assert [seg.computed_digest(i) for i in range(seg.n_runs)] == list(stored)
+            computed = [seg.computed_digest(i) for i in range(0, seg.n_runs, seg.block_runs)]
+            assert computed == [f"{int(v):08x}".encode() for v in stored]
     assert checked == len(archive)
     assert all(seen.values()), seen  # every part was exercised with rows
 

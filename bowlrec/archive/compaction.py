@@ -1,6 +1,7 @@
 """``runs compact``: rewrite segments that hold dead copies (removed, damaged, duplicate) and
 merge small segments (one-run segments of interactive use) into segments of up to
-``target_runs`` runs. Nothing is rewritten in place.
+``target_runs`` runs; with ``upgrade`` (``bowlrec archive migrate`` of a 2.x archive) the
+segments of a format before the one this code writes instead. Nothing is rewritten in place.
 
 Order (a kill at any point loses nothing and brings no removed run back):
 1. the live runs of the chosen segments are written to new sealed segments;
@@ -52,6 +53,33 @@ def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
     return [(r[0], r[1], r[3]) for r in rows if r[0] in chosen]
 
 
+def _older(
+    d: ArchiveDir, con: Any, chosen: list[tuple[str, str, str]]
+) -> list[tuple[str, str, str]]:
+    """``chosen`` and every other registered segment of a format before
+    :data:`~bowlrec.archive.segment_format.SEGMENT_FORMAT_VERSION` (an unreadable one is left
+    for ``runs repair``)."""
+    from .segment_file import SegmentFile, format_minor
+    from .segment_format import SEGMENT_FORMAT_VERSION
+
+    current = format_minor(SEGMENT_FORMAT_VERSION)
+    have = {c[0] for c in chosen}
+    out = list(chosen)
+    for seg_id, rel, prov in con.execute(
+        "SELECT segment_id, path, provenance_json FROM segments ORDER BY segment_id"
+    ).fetchall():
+        if seg_id in have:
+            continue
+        try:
+            with SegmentFile(d.root / rel) as seg:
+                older = format_minor(seg.format_version) < current
+        except (SegmentError, OSError):
+            continue
+        if older:
+            out.append((seg_id, rel, prov))
+    return out
+
+
 def _carried(d: ArchiveDir, con: Any, seg: SegmentFile, seg_id: str) -> list[RunRecord]:
     """The runs of a chosen segment to rewrite: its live runs, and its duplicate copies whose
     live copy does not read back (so repair can still fall back to them). Raises
@@ -72,16 +100,17 @@ def _carried(d: ArchiveDir, con: Any, seg: SegmentFile, seg_id: str) -> list[Run
     return records
 
 
-def compact(d: ArchiveDir, *, target_runs: int = 10_000) -> dict[str, int]:
+def compact(d: ArchiveDir, *, target_runs: int = 10_000, upgrade: bool = False) -> dict[str, int]:
     """Rewrite and merge segments (see the module doc); counts of what was done. A segment
-    that cannot be read whole is left as it is, for ``runs repair``."""
+    that cannot be read whole is left as it is, for ``runs repair``. ``upgrade``: rewrite
+    (and merge) the segments of an older format instead, into segments of this version."""
     from .registry import register_segment
     from .segment import SegmentBuilder
     from .segment_file import SegmentFile
 
     with d.writer_lock():
         con = writer_index(d)
-        chosen = _candidates(con, target_runs)
+        chosen = _older(d, con, []) if upgrade else _candidates(con, target_runs)
         groups: dict[str, list[tuple[str, str]]] = defaultdict(list)
         for seg_id, rel, prov in chosen:
             groups[prov].append((seg_id, rel))

@@ -1,4 +1,11 @@
-"""``bowlrec archive migrate``: convert a format 1.0 archive (one HDF5 file per run) to 2.0.
+"""``bowlrec archive migrate``: convert a format 1.0 archive (one HDF5 file per run) to 2.0,
+and rewrite the segments of a 2.x archive written before the current segment format (2.0-2.2)
+as segments of this version (2.3).
+
+A 2.x archive is upgraded by compaction (:func:`bowlrec.archive.compaction.compact` with
+``upgrade``): the older segments' live runs are written to new sealed segments first, one index
+transaction switches to them, and only then are the old files deleted, so a migration killed at
+any point loses nothing and is finished by running it again.
 
 Run IDs do not change (the content hash is the same in both formats), so scenes and jobs run
 before the migration find their runs after it and add no duplicates. The 1.0 files are moved,
@@ -109,7 +116,9 @@ def migrate(
 ) -> dict[str, Any]:
     """Convert the format 1.0 archive at ``root`` to 2.0 in place; a report (counts, the run
     files that could not be read, where the 1.0 files were kept). ``progress(done, total)`` is
-    called as run files are converted."""
+    called as run files are converted. A 2.x archive's segments of an older format are
+    rewritten in the current one (the report says how many; ``already``: the archive's
+    directory format)."""
     from bowlrec.sinks.common import RunData
     from bowlrec.sinks.hdf5_run import read_run_file
 
@@ -125,7 +134,15 @@ def migrate(
     if meta.get("format") != ARCHIVE_FORMAT:
         raise MigrationError(f"{marker}: not a bowlrec archive marker")
     if version.split(".")[0] == "2":
-        return {"already": version, "runs": len(Archive(root, create=False))}
+        archive = Archive(root, create=False)
+        upgraded = archive.compact(upgrade=True)
+        return {
+            "already": version,
+            "runs": len(archive),
+            "segments_rewritten": upgraded["segments_rewritten"],
+            "segments_written": upgraded["segments_written"],
+            "segments_left": upgraded["segments_left"],
+        }
     if version.split(".")[0] != "1":
         raise MigrationError(f"{root}: archive format {version} cannot be migrated")
     backup = root / V1_BACKUP

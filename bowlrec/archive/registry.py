@@ -13,6 +13,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .index import RUN_TABLE_COLUMNS
 from .segment_file import SegmentFile
 from .segment_format import SUMMARY_FLOAT_COLUMNS, SUMMARY_INT_COLUMNS, SegmentInfo
@@ -33,11 +35,17 @@ INSERT_RUN = (
 
 
 def _texts(arr: Any) -> list[str]:
+    n = int(arr.shape[0])
+    if n and bool((arr == arr[0]).all()):  # a column a batch's segment shares (name, pattern)
+        return [bytes(arr[0]).decode()] * n
     return [b.decode() for b in arr.tolist()]
 
 
 def _floats(arr: Any) -> list[float | None]:
-    return [None if v != v else v for v in arr.tolist()]  # NaN stands for None
+    values: list[float | None] = arr.tolist()
+    if not np.isnan(arr).any():
+        return values
+    return [None if v != v else v for v in values]  # NaN stands for None
 
 
 def _ball_parts(refs: list[str]) -> tuple[list[str | None], list[int | None]]:
@@ -157,7 +165,20 @@ def register_segment(
     )
     rows = index_rows(con, int(cur.lastrowid or 0), columns)
     dead_ids = set(dead)
-    rows = [r for r in rows if r[0] not in dead_ids]
+    if dead_ids:
+        rows = [r for r in rows if r[0] not in dead_ids]
+    # the common case first: no run of the segment is indexed yet, so the rows go in as they
+    # are (the unique run-ID index checks that); only when one is indexed already (a duplicate
+    # copy) are the rows split into fresh and shadowed
+    con.execute("SAVEPOINT register_runs")
+    try:
+        con.executemany(INSERT_RUN, rows)
+    except sqlite3.IntegrityError:
+        con.execute("ROLLBACK TO register_runs")
+    else:
+        con.execute("RELEASE register_runs")
+        return len(rows), 0
+    con.execute("RELEASE register_runs")
     existing: set[str] = set()
     ids = [r[0] for r in rows]
     for i in range(0, len(ids), 900):  # SQLite's default limit on bound parameters is 999

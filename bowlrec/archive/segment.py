@@ -1,11 +1,13 @@
 """Segments built and sealed: many runs in one sealed HDF5 file (format ``bowlrec-segment``
-2.0).
+2.3).
 
 A segment holds the runs of one writer as columns: one dataset per quantity with the values of
 all its runs concatenated (``offsets`` datasets give each run's slice), the summary metrics and
-the index columns one dataset each, the scenes as gzip-compressed JSON bytes. What is the same
-for every run of the segment (the provenance: package versions, platform) is stored once, as
-root attributes. Layout and digests: ``docs/archive-format.md``.
+the index columns one dataset each, event kinds and phases as small integer codes. A scene is
+stored as the segment's base scene (once) and the run's overrides: the fields where it differs
+(:mod:`.scene_store`). What is the same for every run of the segment (the provenance: package
+versions, platform) is stored once, as root attributes. One CRC-32 covers each block of runs.
+Layout and digests: ``docs/archive-format.md``.
 
 :class:`SegmentBuilder` collects runs in memory and :meth:`SegmentBuilder.seal` writes the file
 whole (temporary name, fsync, rename): a segment on disk is complete or absent. Sealed segments
@@ -15,6 +17,7 @@ are never modified; removal writes tombstones and compaction writes new segments
 from __future__ import annotations
 
 import gc
+import json
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -27,7 +30,10 @@ from numpy.typing import NDArray
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 
 from .pin_records import pin_index_columns
+from .scene_store import Path as FieldPath
+from .scene_store import path_text
 from .segment_format import (
+    DIGEST_ALGORITHM,
     EVENT_FIELDS,
     FIXED_GROUPS,
     RECORDS_FORMAT_VERSION,
@@ -40,7 +46,10 @@ from .segment_format import (
     TRAJECTORY_FIELDS,
     RunRecord,
     SegmentInfo,
+    block_digest,
+    block_runs_for,
     check_records,
+    digest_parts,
     event_columns,
     fixed_columns,
     format_version_of,
@@ -49,6 +58,10 @@ from .segment_format import (
     run_digest,
     sample_columns,
 )
+
+#: event kind and phase codes (2.3): code i is names[i] (stored as each dataset's ``names_json``)
+KIND_NAMES = tuple(EVENT_KINDS.get(i, "") for i in range(max(EVENT_KINDS) + 1))
+PHASE_CODE_NAMES = tuple(PHASE_NAMES[i] for i in range(len(PHASE_NAMES)))
 
 __all__ = [
     "EVENT_FIELDS",
@@ -61,11 +74,14 @@ __all__ = [
     "SUMMARY_FLOAT_COLUMNS",
     "SUMMARY_INT_COLUMNS",
     "TRAJECTORY_FIELDS",
+    "KIND_NAMES",
+    "PHASE_CODE_NAMES",
     "RunRecord",
     "SegmentBuilder",
     "SegmentInfo",
     "SummaryRuns",
     "check_records",
+    "digest_parts",
     "event_columns",
     "fixed_columns",
     "format_version_of",
@@ -74,6 +90,7 @@ __all__ = [
     "row_matrix",
     "run_digest",
     "sample_columns",
+    "scene_columns",
     "seal_columns",
 ]
 
@@ -197,7 +214,6 @@ class SegmentBuilder:
             summary[name] = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
         for name in SUMMARY_INT_COLUMNS:
             summary[name] = np.array([getattr(r.summary, name) for r in recs], dtype=np.int64)
-        scene_bytes, scene_offsets = _concat([r.scene_json for r in recs])
         message_bytes, message_offsets = _concat([r.summary.message.encode() for r in recs])
         events = self._events()
         trajectory, traj_offsets = self._samples()
@@ -209,7 +225,7 @@ class SegmentBuilder:
         return _with_digests(
             runs,
             summary,
-            (scene_bytes, scene_offsets),
+            scene_columns([r.scene_json for r in recs]),
             (message_bytes, message_offsets),
             events,
             (trajectory, smp_m),
@@ -218,18 +234,22 @@ class SegmentBuilder:
             record_groups(recs),
         )
 
-    def _events(self) -> dict[str, NDArray[Any]]:
+    def _events(self) -> dict[str, Any]:
         rows = [e for r in self.records for e in r.events]
         offsets = np.zeros(len(self.records) + 1, dtype=np.int64)
         np.cumsum([len(r.events) for r in self.records], out=offsets[1:])
         cols = list(zip(*rows, strict=True)) if rows else [()] * len(EVENT_FIELDS)
-        out: dict[str, NDArray[Any]] = {}
+        out: dict[str, Any] = {}
+        names: dict[str, list[str]] = {}
         for name, values in zip(EVENT_FIELDS, cols, strict=True):
             if name in ("kind", "phase"):
-                out[name] = _strings(values) if values else np.zeros(0, dtype="S1")
+                out[name], names[name] = _codes(
+                    values, KIND_NAMES if name == "kind" else PHASE_CODE_NAMES
+                )
             else:
                 out[name] = np.array(values, dtype=np.float64)
         out["offsets"] = offsets
+        out["_names"] = names
         return out
 
     def _samples(self) -> tuple[dict[str, NDArray[Any]], NDArray[np.int64]]:
@@ -307,19 +327,23 @@ class SummaryRuns:
     str shared by all); ``floats``: :data:`RUN_FLOAT_COLUMNS` (arrays of n); ``summary``:
     ``outcome`` (str array), :data:`SUMMARY_FLOAT_COLUMNS` (NaN: None) and
     :data:`SUMMARY_INT_COLUMNS`; ``messages``: one per run; ``events``: (n, cap, 6) rows as the
-    kernels write them (t, kind code, x, y, mu, rolling) with ``n_events`` per run."""
+    kernels write them (t, kind code, x, y, mu, rolling) with ``n_events`` per run. The scenes:
+    ``scene_base`` (compact JSON) with, for run i, ``scene_values[i, j]`` at path
+    ``scene_paths[j]`` (see :mod:`.scene_store`)."""
 
     strings: dict[str, list[str] | str]
     floats: dict[str, NDArray[np.float64]]
     created_at_ns: int
-    scene_json: list[bytes]
+    scene_base: bytes
+    scene_paths: list[FieldPath]
+    scene_values: NDArray[np.float64]
     summary: dict[str, NDArray[Any]]
     messages: list[str]
     events: NDArray[np.float64]
     n_events: NDArray[np.int64]
 
     def __len__(self) -> int:
-        return len(self.scene_json)
+        return int(self.scene_values.shape[0])
 
     def run_ids(self) -> list[str]:
         ids = self.strings["run_id"]
@@ -336,7 +360,9 @@ class SummaryRuns:
             },
             floats={k: np.asarray(v)[rows] for k, v in self.floats.items()},
             created_at_ns=self.created_at_ns,
-            scene_json=[self.scene_json[i] for i in pick],
+            scene_base=self.scene_base,
+            scene_paths=self.scene_paths,
+            scene_values=self.scene_values[rows],
             summary={k: np.asarray(v)[rows] for k, v in self.summary.items()},
             messages=[self.messages[i] for i in pick],
             events=self.events[rows],
@@ -360,28 +386,35 @@ class SummaryRuns:
             summary[name] = np.asarray(self.summary[name], dtype=np.float64)
         for name in SUMMARY_INT_COLUMNS:
             summary[name] = np.asarray(self.summary[name], dtype=np.int64)
-        scene_bytes, scene_offsets = _concat(self.scene_json)
         message_bytes, message_offsets = _concat([m.encode() for m in self.messages])
         keep = np.arange(self.events.shape[1])[None, :] < self.n_events[:, None]
         rows = self.events[keep]  # run by run, in event order
         offsets = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(self.n_events, out=offsets[1:])
-        kinds = {code: name.encode() for code, name in EVENT_KINDS.items()}
-        phases = {code: name.encode() for code, name in PHASE_NAMES.items()}
-        events: dict[str, NDArray[Any]] = {
-            "kind": _fixed([kinds[int(c)] for c in rows[:, EV_KIND]]),
+        events: dict[str, Any] = {
+            "kind": rows[:, EV_KIND].astype(np.uint8),
             "mu": rows[:, EV_MU].copy(),
-            "phase": _fixed([phases[int(r)] for r in rows[:, EV_PHASE]]),
+            "phase": rows[:, EV_PHASE].astype(np.uint8),
             "t_s": rows[:, EV_T].copy(),
             "x_m": rows[:, EV_X].copy(),
             "y_m": rows[:, EV_Y].copy(),
             "offsets": offsets,
+            "_names": {"kind": list(KIND_NAMES), "phase": list(PHASE_CODE_NAMES)},
         }
         no_samples = np.zeros((0, 0), dtype=np.uint8)
+        scene = {
+            "base_json": np.frombuffer(self.scene_base, dtype=np.uint8).copy(),
+            "override_paths": _strings(path_text(p) for p in self.scene_paths),
+            "override_values": np.ascontiguousarray(self.scene_values, dtype=np.float64).reshape(
+                n, len(self.scene_paths)
+            ),
+            "override_json": np.zeros(0, dtype=np.uint8),
+            "override_offsets": np.zeros(n + 1, dtype=np.int64),
+        }
         return _with_digests(
             runs,
             summary,
-            (scene_bytes, scene_offsets),
+            scene,
             (message_bytes, message_offsets),
             events,
             ({"offsets": np.zeros(n + 1, dtype=np.int64)}, no_samples),
@@ -390,60 +423,99 @@ class SummaryRuns:
         )
 
 
+def _codes(values: Sequence[str], table: Sequence[str]) -> tuple[NDArray[np.uint8], list[str]]:
+    """Text values as codes into ``table`` (names not in it are appended): (codes, names)."""
+    names = list(table)
+    index = {name: i for i, name in enumerate(names) if name}
+    codes = []
+    for v in values:
+        code = index.get(v)
+        if code is None:
+            code = index[v] = len(names)
+            names.append(v)
+        codes.append(code)
+    if len(names) > 256:
+        raise ValueError(f"more than 256 distinct event codes in one segment ({len(names)})")
+    return np.array(codes, dtype=np.uint8), names
+
+
+def scene_columns(scenes: Sequence[bytes]) -> dict[str, NDArray[Any]]:
+    """The ``scene`` group of the runs whose scenes (compact JSON) are ``scenes``: the first one
+    is the base, and a run whose scene differs from it stores its scene whole (see
+    :mod:`.scene_store`)."""
+    n = len(scenes)
+    base_raw = scenes[0]
+    override_bytes, override_offsets = _concat([b"" if s == base_raw else s for s in scenes])
+    return {
+        "base_json": np.frombuffer(base_raw, dtype=np.uint8).copy(),
+        "override_paths": np.zeros(0, dtype="S1"),
+        "override_values": np.zeros((n, 0), dtype=np.float64),
+        "override_json": override_bytes,
+        "override_offsets": override_offsets,
+    }
+
+
 def _with_digests(
     runs: dict[str, NDArray[Any]],
     summary: dict[str, NDArray[Any]],
-    scenes: tuple[NDArray[np.uint8], NDArray[np.int64]],
+    scene: dict[str, NDArray[Any]],
     messages: tuple[NDArray[np.uint8], NDArray[np.int64]],
-    events: dict[str, NDArray[Any]],
+    events: dict[str, Any],
     samples: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
     torques: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
     terms: Sequence[str],
     records: dict[str, tuple[dict[str, Any], Any]] | None = None,
 ) -> dict[str, Any]:
-    """A segment's datasets by group, each run's digest computed (see :func:`run_digest`).
+    """A segment's datasets by group, with one digest per block of runs (see
+    :func:`digest_parts`).
 
     ``samples`` and ``torques``: each group's datasets (with ``offsets``) and its row matrix
     (:func:`row_matrix`; any empty matrix when no run has rows); ``records``: the per-run record
     groups (:func:`record_groups`), which join each digest after the torques."""
     records = records or {}
     n = int(runs["run_id"].shape[0])
-    scene_bytes, scene_offsets = scenes
     message_bytes, message_offsets = messages
     fixed = row_matrix(fixed_columns(runs, summary), n)
+    names = events.pop("_names")
     ev_off = events["offsets"]
     ev_m = row_matrix(event_columns(events), int(ev_off[-1]))
     smp_off, tq_off = samples[0]["offsets"], torques[0]["offsets"]
-    smp_m, tq_m = samples[1], torques[1]
-    digests = [
-        run_digest(
-            fixed[i].data,
-            scene_bytes[scene_offsets[i] : scene_offsets[i + 1]].data,
-            message_bytes[message_offsets[i] : message_offsets[i + 1]].data,
-            ev_m[ev_off[i] : ev_off[i + 1]].data,
-            smp_m[smp_off[i] : smp_off[i + 1]].data,
-            tq_m[tq_off[i] : tq_off[i + 1]].data,
-            *(m[d["offsets"][i] : d["offsets"][i + 1]].data for d, m in records.values()),
-        )
-        for i in range(n)
+    parts = [
+        (scene["override_json"], scene["override_offsets"]),
+        (message_bytes, message_offsets),
+        (ev_m, ev_off),
+        (samples[1], smp_off),
+        (torques[1], tq_off),
+        *((m, d["offsets"]) for d, m in records.values()),
     ]
-    runs["digest"] = np.array(digests, dtype="S32")
-    runs["scene_json"] = scene_bytes
-    runs["scene_json_offsets"] = scene_offsets
+    has_rows = bool(smp_off[-1] or tq_off[-1]) or any(
+        int(d["offsets"][-1]) for d, _ in records.values()
+    )
+    block = block_runs_for(has_rows)
+    digests = np.array(
+        [
+            block_digest(digest_parts(scene, fixed, parts, a, min(n, a + block)))
+            for a in range(0, n, block)
+        ],
+        dtype=np.uint32,
+    )
     summary["message"] = message_bytes
     summary["message_offsets"] = message_offsets
     return {
         "runs": runs,
         "summary": summary,
+        "scene": scene,
         "events": events,
         "trajectory": samples[0],
         "torques": torques[0],
         **{group: datasets for group, (datasets, _) in records.items()},
+        "digest": {"blocks": digests},
         "_terms": np.array([t.encode() for t in terms], dtype="S64"),
+        "_attrs": {
+            "digest": {"block_runs": block, "algorithm": DIGEST_ALGORITHM},
+            **{
+                f"events/{k}": {"names_json": json.dumps(v, separators=(",", ":"))}
+                for k, v in names.items()
+            },
+        },
     }
-
-
-def _fixed(values: list[bytes]) -> NDArray[np.bytes_]:
-    if not values:
-        return np.zeros(0, dtype="S1")
-    return np.array(values, dtype=np.bytes_)

@@ -30,6 +30,7 @@ from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
 from .pin_records import pin_index_columns
+from .scene_store import scene_text
 from .segment_format import (
     EVENT_FIELDS,
     FIXED_GROUPS,
@@ -41,6 +42,8 @@ from .segment_format import (
     SUMMARY_INT_COLUMNS,
     TRAJECTORY_FIELDS,
     RunRecord,
+    block_digest,
+    digest_parts,
     event_columns,
     fixed_columns,
     format_version_of,
@@ -49,7 +52,7 @@ from .segment_format import (
     sample_columns,
 )
 
-__all__ = ["SegmentFile", "StoredRecord", "write_segment"]
+__all__ = ["SegmentFile", "StoredRecord", "format_minor", "write_segment"]
 
 #: datasets whose values are text or bookkeeping: units "1" and what the values mean
 _MEANINGS = {
@@ -61,14 +64,24 @@ _MEANINGS = {
     "record": "options.record: summary, steps or rate",
     "solver": "integrator or closed_form",
     "digest": "BLAKE2b-128 of the run's stored bytes (hex; docs/archive-format.md)",
+    "blocks": "CRC-32 of each block of block_runs runs (docs/archive-format.md, Digests)",
+    "base_json": "the segment's base scene, compact JSON (UTF-8 bytes)",
+    "override_paths": "field paths (JSON arrays of keys and indices) of override_values' columns",
+    "override_values": "run i's value of the field override_paths[j] (the units of that scene "
+    "field; NaN: not overridden)",
+    "override_json": "the scenes of the runs that differ from the base otherwise than in "
+    "override_values, whole, compact JSON (UTF-8 bytes of all runs, concatenated; empty: the "
+    "base with the run's override_values)",
+    "override_offsets": "run i's scene is override_json[offsets[i]:offsets[i + 1]] when that is "
+    "not empty",
     "outcome": "how the run ended",
     "scene_json": "scenes as given, compact JSON (UTF-8 bytes of all runs, concatenated)",
     "message": "summary messages (UTF-8 bytes of all runs, concatenated)",
     "offsets": "run i spans [offsets[i], offsets[i + 1]) of this group's datasets",
     "scene_json_offsets": "run i's scene is scene_json[offsets[i]:offsets[i + 1]]",
     "message_offsets": "run i's message is message[offsets[i]:offsets[i + 1]]",
-    "kind": "event kind",
-    "phase": "rolling or sliding after the event",
+    "kind": "event kind (a code: names_json[code] names it)",
+    "phase": "rolling or sliding after the event (a code: names_json[code] names it)",
     "n_steps": "accepted integrator steps (count)",
     "n_rhs": "right-hand-side evaluations (count)",
     "n_events": "events (count)",
@@ -125,7 +138,8 @@ def write_segment(
         for key, value in provenance.items():
             f.attrs[key] = value
         record_groups = sorted(g for g in columns if g not in FIXED_GROUPS and g[0] != "_")
-        for group_name in ("runs", "summary", "events", "trajectory", "torques", *record_groups):
+        fixed = ("runs", "summary", "scene", "events", "trajectory", "torques", "digest")
+        for group_name in (*(g for g in fixed if g in columns), *record_groups):
             group = f.create_group(group_name)
             for name, arr in columns[group_name].items():
                 data = np.asarray(arr)
@@ -136,6 +150,9 @@ def write_segment(
                 if meaning:
                     meanings[f"{group_name}/{name}"] = meaning
         f["torques"].attrs["order"] = terms
+        for where, attrs in columns.get("_attrs", {}).items():
+            for key, value in attrs.items():
+                f[where].attrs[key] = value
         f.attrs["meanings_json"] = json.dumps(meanings, sort_keys=True)
         faults.point("segment-written", path=tmp)
 
@@ -149,7 +166,20 @@ _SMALL_BYTES = 4096
 #: beyond that run (load times: benchmarks/results/archive.md)
 _CHUNK_BYTES = {"runs": 1 << 20, "summary": 1 << 20, "events": 1 << 20}
 _SLICED_CHUNK_BYTES = 1 << 15
-_SLICED = {"scene_json", "message"}
+_SLICED = {"scene_json", "message", "override_json", "override_values"}
+#: float columns of measured values, which gzip shrinks by ~10-20 % at a cost that is most of a
+#: segment's write time (benchmarks/results/archive.md): stored chunked, not compressed
+_INCOMPRESSIBLE = frozenset(
+    {
+        ("events", "t_s"),
+        ("events", "x_m"),
+        ("events", "y_m"),
+        ("scene", "override_values"),
+        ("runs", "speed_mps"),
+        ("runs", "rev_rate_rpm"),
+        *(("summary", name) for name in SUMMARY_FLOAT_COLUMNS),
+    }
+)
 #: per-sample storage filters (write_segment's ``samples``)
 SAMPLE_FILTERS = ("gzip", "none")
 _SAMPLE_GROUPS = {"trajectory", "torques"}
@@ -157,7 +187,8 @@ _SAMPLE_GROUPS = {"trajectory", "torques"}
 
 def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -> dict[str, Any]:
     """How a dataset is stored: contiguous when small, else chunked + shuffle + gzip (per-sample
-    datasets with ``samples`` "none": chunked, not compressed)."""
+    datasets with ``samples`` "none" and the measured float columns of :data:`_INCOMPRESSIBLE`:
+    chunked, not compressed)."""
     if data.ndim == 0 or data.nbytes <= _SMALL_BYTES:
         return {}
     target = (
@@ -165,7 +196,7 @@ def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -
     )
     row_bytes = max(1, data.nbytes // max(1, data.shape[0]))
     rows = max(1, min(data.shape[0], target // row_bytes))
-    if samples == "none" and group in _SAMPLE_GROUPS:
+    if (samples == "none" and group in _SAMPLE_GROUPS) or (group, name) in _INCOMPRESSIBLE:
         return {"chunks": (rows, *data.shape[1:])}
     return {"chunks": (rows, *data.shape[1:]), **GZIP_FILTERS}
 
@@ -176,6 +207,7 @@ class _RowBytes:
 
     run_id: str
     fixed: dict[str, dict[str, NDArray[Any]]]
+    #: the scene as stored: the whole scene (2.0-2.2) or the run's JSON overrides (2.3)
     scene: bytes
     message: bytes
     events: dict[str, NDArray[Any]]
@@ -183,6 +215,8 @@ class _RowBytes:
     torques: dict[str, NDArray[Any]]
     #: per-run record groups: group -> {dataset: the run's rows}
     records: dict[str, dict[str, NDArray[Any]]]
+    #: 2.3: the rows of ``scene/override_values`` (else an empty array)
+    values: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -264,7 +298,12 @@ class SegmentFile:
                 f"(it reads {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
             )
         self.segment_id = str(self._f.attrs["segment_id"])
+        self.format_version = version
+        #: 2.3 and on: base scene and overrides, event codes, a digest per block of runs
+        self.blocks = format_minor(version) >= 3
         self._dsets: dict[str, Any] = {}
+        self._scene_shared: dict[str, Any] | None = None
+        self._names: dict[str, list[str] | None] = {}
         self._columns: dict[str, dict[str, NDArray[Any]]] | None = None
         self._provenance: dict[str, Any] | None = None
         self._terms_cache: list[str] | None = None
@@ -342,8 +381,9 @@ class SegmentFile:
             for group in ("runs", "summary"):
                 g = self._f[group]
                 cols[group] = {name: g[name][()] for name in g if name not in _VARIABLE}
+            scene_offsets = "scene/override_offsets" if self.blocks else "runs/scene_json_offsets"
             cols["offsets"] = {
-                "scene_json": self._f["runs/scene_json_offsets"][()],
+                "scene_json": self._f[scene_offsets][()],
                 "message": self._f["summary/message_offsets"][()],
                 **{
                     g: self._f[g]["offsets"][()]
@@ -354,42 +394,46 @@ class SegmentFile:
             self._columns = cols
         return self._columns
 
-    def _fixed_row(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
-        cols = self._per_run()
-        return {
-            group: {name: arr[row : row + 1] for name, arr in cols[group].items()}
-            for group in ("runs", "summary")
-        }
+    def _span(self, offsets: str, row: int, end: int | None = None) -> tuple[int, int]:
+        """Rows ``row:end`` (default one run) of a group with offsets, as data row bounds."""
+        off = self._per_run()["offsets"][offsets]
+        return int(off[row]), int(off[row + 1 if end is None else end])
 
-    def _span(self, offsets: str, row: int) -> tuple[int, int]:
-        a, b = self._per_run()["offsets"][offsets][row : row + 2]
-        return int(a), int(b)
-
-    def _read_row(self, row: int) -> _RowBytes:
-        """Everything stored for run ``row`` (RunDamagedError when it cannot be read)."""
+    def _read_row(self, row: int, end: int | None = None) -> _RowBytes:
+        """Everything stored for run ``row`` (or runs ``row:end``, concatenated: a digest block)
+        (RunDamagedError when it cannot be read)."""
         f = self._f
+        stop = row + 1 if end is None else end
         try:
-            fixed = self._fixed_row(row)
+            cols = self._per_run()
+            fixed = {
+                group: {name: arr[row:stop] for name, arr in cols[group].items()}
+                for group in ("runs", "summary")
+            }
             run_id = _text(fixed["runs"]["run_id"][0])
         except (OSError, RuntimeError, KeyError, ValueError, IndexError, TypeError) as err:
             raise RunDamagedError(f"row {row}", self.segment_id, f"unreadable: {err}") from None
         try:
-            s0, s1 = self._span("scene_json", row)
-            m0, m1 = self._span("message", row)
-            e0, e1 = self._span("events", row)
-            t0, t1 = self._span("trajectory", row)
-            q0, q1 = self._span("torques", row)
+            s0, s1 = self._span("scene_json", row, end)
+            m0, m1 = self._span("message", row, end)
+            e0, e1 = self._span("events", row, end)
+            t0, t1 = self._span("trajectory", row, end)
+            q0, q1 = self._span("torques", row, end)
             tg = f["trajectory"]
             ds = self._ds
+            scene_ds = "scene/override_json" if self.blocks else "runs/scene_json"
             data = _RowBytes(
                 run_id=run_id,
                 fixed=fixed,
-                scene=ds("runs/scene_json")[s0:s1].tobytes(),
+                scene=ds(scene_ds)[s0:s1].tobytes(),
                 message=ds("summary/message")[m0:m1].tobytes(),
                 events={k: ds(f"events/{k}")[e0:e1] for k in EVENT_FIELDS},
                 samples={k: ds(f"trajectory/{k}")[t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
                 torques={t: ds(f"torques/{t}")[q0:q1] for t in self._terms} if q1 > q0 else {},
-                records=self._record_rows(row),
+                records=self._record_rows(row, end),
+                values=ds("scene/override_values")[row:stop]
+                if self.blocks
+                else np.zeros((0, 0), dtype=np.float64),
             )
         except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
             raise RunDamagedError(run_id, self.segment_id, f"unreadable: {err}") from None
@@ -416,19 +460,126 @@ class SegmentFile:
             ),
         )
 
+    # -- 2.3: digest blocks and scenes -----------------------------------------------------------
+
+    @property
+    def block_runs(self) -> int:
+        """Runs per digest block (2.3; 1 for an earlier segment: a digest per run)."""
+        return int(self._f["digest"].attrs["block_runs"]) if self.blocks else 1
+
+    def _shared(self) -> dict[str, Any]:
+        """The segment's base scene and override paths (2.3), read once."""
+        if self._scene_shared is None:
+            g = self._f["scene"]
+            paths_raw = g["override_paths"][()]
+            self._scene_shared = {
+                "base_json": g["base_json"][()],
+                "override_paths": paths_raw,
+                "paths": [json.loads(_text(p)) for p in paths_raw.tolist()],
+                "blocks": self._f["digest/blocks"][()],
+            }
+        return self._scene_shared
+
+    def _block_digest(self, d: _RowBytes, n: int) -> int:
+        """The CRC-32 of a block of ``n`` runs read by :meth:`_read_row` (see
+        :func:`~bowlrec.archive.segment_format.digest_parts`)."""
+        shared = self._shared()
+        scene = {
+            "base_json": shared["base_json"],
+            "override_paths": shared["override_paths"],
+            "override_values": d.values,
+        }
+        fixed = row_matrix(fixed_columns(d.fixed["runs"], d.fixed["summary"]), n)
+        sizes = [
+            len(d.scene),
+            len(d.message),
+            int(d.events["t_s"].shape[0]),
+            int(d.samples["t_s"].shape[0]) if d.samples else 0,
+            int(next(iter(d.torques.values())).shape[0]) if d.torques else 0,
+        ]
+        mats: list[Any] = [
+            np.frombuffer(d.scene, dtype=np.uint8),
+            np.frombuffer(d.message, dtype=np.uint8),
+            row_matrix(event_columns(d.events), sizes[2]),
+            row_matrix(sample_columns(d.samples), sizes[3]),
+            row_matrix(list(d.torques.values()), sizes[4]),
+        ]
+        for _, rows in sorted(d.records.items()):
+            size = int(next(iter(rows.values())).shape[0]) if rows else 0
+            sizes.append(size)
+            mats.append(row_matrix([rows[k] for k in sorted(rows)], size))
+        parts = [(m, _block_offsets(n, size)) for m, size in zip(mats, sizes, strict=True)]
+        return block_digest(digest_parts(scene, fixed, parts, 0, n))
+
+    def _check_block(self, row: int) -> None:
+        """RunDamagedError unless the digest block holding run ``row`` matches its digest."""
+        size = self.block_runs
+        a = row // size * size
+        b = min(self.n_runs, a + size)
+        d = self._read_row(a, b)
+        try:
+            stored = int(self._shared()["blocks"][row // size])
+        except (OSError, RuntimeError, KeyError, ValueError, IndexError) as err:
+            raise RunDamagedError(d.run_id, self.segment_id, f"unreadable: {err}") from None
+        if self._block_digest(d, b - a) != stored:
+            run_id = _text(self._per_run()["runs"]["run_id"][row])
+            raise RunDamagedError(run_id, self.segment_id, "digest mismatch")
+
+    def scene_text(self, row: int, d: _RowBytes | None = None) -> str:
+        """Run ``row``'s scene (compact JSON): stored whole (2.0-2.2) or rebuilt from the base
+        and the run's overrides (2.3)."""
+        d = self._read_row(row) if d is None else d
+        if not self.blocks:
+            return d.scene.decode()
+        try:
+            shared = self._shared()
+            return scene_text(
+                shared["base_json"].tobytes(), shared["paths"], d.values[0].tolist(), d.scene
+            )
+        except (OSError, RuntimeError, ValueError, KeyError, IndexError, TypeError) as err:
+            raise RunDamagedError(d.run_id, self.segment_id, f"unreadable scene: {err}") from None
+
     def computed_digest(self, row: int) -> bytes:
         """The digest of run ``row`` computed from its stored bytes (what ``runs/digest`` must
-        hold; see docs/archive-format.md, "Digests")."""
+        hold, 2.0-2.2; for 2.3 the CRC-32 of its block as 8 hex digits; see
+        docs/archive-format.md, "Digests")."""
+        if self.blocks:
+            size = self.block_runs
+            a = row // size * size
+            b = min(self.n_runs, a + size)
+            return f"{self._block_digest(self._read_row(a, b), b - a):08x}".encode()
         return self._digest(self._read_row(row))
 
     def read_run(self, row: int) -> StoredRecord:
         """Run ``row`` with its digest checked (:class:`RunDamagedError` when it fails)."""
-        d = self._read_row(row)
-        if self._digest(d) != bytes(d.fixed["runs"]["digest"][0]):
-            raise RunDamagedError(d.run_id, self.segment_id, "digest mismatch")
+        if self.blocks:
+            self._check_block(row)
+            d = self._read_row(row)
+        else:
+            d = self._read_row(row)
+            if self._digest(d) != bytes(d.fixed["runs"]["digest"][0]):
+                raise RunDamagedError(d.run_id, self.segment_id, "digest mismatch")
         return self._record(
-            row, d.run_id, d.fixed, d.scene, d.message, d.events, d.samples, d.torques, d.records
+            row,
+            d.run_id,
+            d.fixed,
+            self.scene_text(row, d).encode(),
+            d.message,
+            d.events,
+            d.samples,
+            d.torques,
+            d.records,
         )
+
+    def _event_text(self, name: str, values: NDArray[Any]) -> list[str]:
+        """An event column as text: stored as text (2.0-2.2) or as codes (2.3)."""
+        if name not in self._names:
+            attr = self._f[f"events/{name}"].attrs.get("names_json")
+            self._names[name] = None if attr is None else json.loads(_text(attr))
+        names = self._names[name]
+        if names is None:
+            return [_text(v) for v in values]
+        return [names[int(c)] for c in values]
 
     def _record(
         self,
@@ -450,14 +601,16 @@ class SegmentFile:
         for name in SUMMARY_INT_COLUMNS:
             values[name] = int(s[name][0])
         summary = Summary(**values)
+        kinds = self._event_text("kind", events["kind"])
+        phases = self._event_text("phase", events["phase"])
         evs = [
             Event(
                 t_s=float(events["t_s"][i]),
-                kind=_text(events["kind"][i]),
+                kind=kinds[i],
                 x_m=float(events["x_m"][i]),
                 y_m=float(events["y_m"][i]),
                 mu=float(events["mu"][i]),
-                phase=_text(events["phase"][i]),
+                phase=phases[i],
             )
             for i in range(int(events["t_s"].shape[0]))
         ]
@@ -493,6 +646,8 @@ class SegmentFile:
 
     def verify(self) -> tuple[list[int], dict[int, str]]:
         """Check every run's digest: (healthy rows, {damaged row: reason})."""
+        if self.blocks:
+            return self._verify_blocks()
         f = self._f
         n = self.n_runs
         try:
@@ -546,6 +701,52 @@ class SegmentFile:
                 damaged[i] = "digest mismatch"
         return healthy, damaged
 
+    def _verify_blocks(self) -> tuple[list[int], dict[int, str]]:
+        """:meth:`verify` of a 2.3 segment: every block's digest, from the datasets read whole
+        (block by block, each reading only its own slices, when a dataset cannot be read)."""
+        f = self._f
+        n, size = self.n_runs, self.block_runs
+        try:
+            cols = self._per_run()
+            fixed = row_matrix(fixed_columns(cols["runs"], cols["summary"]), n)
+            shared = self._shared()
+            scene = {
+                "base_json": shared["base_json"],
+                "override_paths": shared["override_paths"],
+                "override_values": f["scene/override_values"][()],
+            }
+            parts = [
+                (f["scene/override_json"][()], f["scene/override_offsets"][()]),
+                (f["summary/message"][()], f["summary/message_offsets"][()]),
+                self._matrix("events", EVENT_FIELDS),
+                self._matrix("trajectory", TRAJECTORY_FIELDS),
+                self._matrix("torques", self._terms),
+                *(
+                    self._matrix(g, sorted(k for k in f[g] if k != "offsets"))
+                    for g in self._extra_groups()
+                ),
+            ]
+        except (OSError, RuntimeError, KeyError, ValueError):
+            healthy_rows: list[int] = []
+            damaged_rows: dict[int, str] = {}
+            for a in range(0, n, size):
+                rows = range(a, min(n, a + size))
+                try:
+                    self._check_block(a)
+                    healthy_rows.extend(rows)
+                except RunDamagedError as err:
+                    damaged_rows.update({i: err.reason for i in rows})
+            return healthy_rows, damaged_rows
+        healthy: list[int] = []
+        damaged: dict[int, str] = {}
+        for k, a in enumerate(range(0, n, size)):
+            b = min(n, a + size)
+            if block_digest(digest_parts(scene, fixed, parts, a, b)) == int(shared["blocks"][k]):
+                healthy.extend(range(a, b))
+            else:
+                damaged.update({i: "digest mismatch" for i in range(a, b)})
+        return healthy, damaged
+
     def unknown_groups(self) -> list[str]:
         """Groups this reader does not know: neither a fixed group nor a per-run record group
         (a group with ``offsets``). It cannot rewrite them into another segment."""
@@ -564,11 +765,12 @@ class SegmentFile:
             and "offsets" in self._f[g]
         )
 
-    def _record_rows(self, row: int) -> dict[str, dict[str, NDArray[Any]]]:
-        """Run ``row``'s rows of every per-run record group (zero rows where it has none)."""
+    def _record_rows(self, row: int, end: int | None = None) -> dict[str, dict[str, NDArray[Any]]]:
+        """Run ``row``'s (or runs ``row:end``'s) rows of every per-run record group (zero rows
+        where it has none)."""
         out = {}
         for g in self._extra_groups():
-            a, b = self._span(g, row)
+            a, b = self._span(g, row, end)
             out[g] = {k: self._ds(f"{g}/{k}")[a:b] for k in sorted(self._f[g]) if k != "offsets"}
         return out
 
@@ -581,6 +783,20 @@ class SegmentFile:
     def read_all(self, rows: list[int] | None = None) -> list[StoredRecord]:
         """Several runs (every run when ``rows`` is None), digests checked."""
         return [self.read_run(i) for i in (range(self.n_runs) if rows is None else rows)]
+
+
+def _block_offsets(n: int, size: int) -> NDArray[np.int64]:
+    """Offsets (n+1,) of a block of ``n`` runs holding ``size`` rows together: the block
+    starts at 0 and ends at ``size`` (all a block digest reads of them)."""
+    out = np.full(n + 1, size, dtype=np.int64)
+    out[0] = 0
+    return out
+
+
+def format_minor(version: str) -> int:
+    """The minor number of a ``major.minor`` version (0 when there is none)."""
+    parts = version.split(".")
+    return int(parts[1]) if len(parts) > 1 and parts[1].isdigit() else 0
 
 
 def _empty_samples() -> dict[str, NDArray[Any]]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import time
 import uuid
+import zlib
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,6 +36,8 @@ __all__ = [
     "RECORDS_FORMAT_VERSION",
     "RUN_FLOAT_COLUMNS",
     "RUN_STRING_COLUMNS",
+    "DIGEST_ALGORITHM",
+    "SCENE_FORMAT_VERSION",
     "SEGMENT_FORMAT",
     "SEGMENT_FORMAT_VERSION",
     "SUMMARY_FLOAT_COLUMNS",
@@ -47,19 +50,35 @@ __all__ = [
     "fixed_columns",
     "format_version_of",
     "new_segment_id",
+    "block_digest",
+    "block_runs_for",
+    "digest_parts",
     "row_matrix",
     "run_digest",
     "sample_columns",
 ]
 
 SEGMENT_FORMAT = "bowlrec-segment"
-#: major.minor: readers accept every minor of their major (docs/archive-format.md)
-SEGMENT_FORMAT_VERSION = "2.0"
-#: the minor version a segment declares when it holds per-run record groups (``RunRecord.records``)
+#: major.minor this code writes: a base scene and per-run overrides, codes for event kinds and
+#: phases, one digest per block of runs (docs/archive-format.md). Readers accept 2.0 and on.
+SEGMENT_FORMAT_VERSION = "2.3"
+#: the first minor version with that layout (segments before it store every run's scene whole,
+#: event kinds and phases as text, and one BLAKE2b digest per run in ``runs/digest``)
+SCENE_FORMAT_VERSION = "2.3"
+#: the minor version a 2.1 writer declared for a segment with per-run record groups
 RECORDS_FORMAT_VERSION = "2.1"
-#: groups with a fixed place in the digest (parts 1-6); any other group with an ``offsets``
-#: dataset is a per-run record group (parts 7 and on, groups in sorted name order)
-FIXED_GROUPS = frozenset({"runs", "summary", "events", "trajectory", "torques"})
+#: groups with a fixed place in the digest; any other group with an ``offsets`` dataset is a
+#: per-run record group (after the fixed parts, groups in sorted name order)
+FIXED_GROUPS = frozenset({"runs", "summary", "events", "trajectory", "torques", "scene", "digest"})
+#: the 2.3 digest: CRC-32 (zlib's, the polynomial of gzip and PNG) of each block of runs. It
+#: detects accidental damage (a flipped bit, a torn or misplaced write: every burst of up to 32
+#: bits, other damage but with probability 2**-32), which is all a digest stored beside its data
+#: can do: whoever can rewrite the data can rewrite its digest, so a cryptographic hash would
+#: buy nothing here, at ~4x the time (docs/archive-format.md, "Digests")
+DIGEST_ALGORITHM = "crc32"
+#: runs per digest block in a segment of summary-only runs (a block is read whole to check one
+#: run of it); a segment holding samples, torques or record-group rows digests each run alone
+SUMMARY_BLOCK_RUNS = 256
 
 #: summary metrics stored as float64 columns (NaN stands for None) and as int64 columns
 SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
@@ -240,7 +259,8 @@ def run_digest(
     torques: bytes | memoryview,
     *extra: bytes | memoryview,
 ) -> bytes:
-    """BLAKE2b-128 of one run's stored bytes (docs/archive-format.md, "Digests").
+    """BLAKE2b-128 of one run's stored bytes in a segment of format 2.0-2.2 (docs/
+    archive-format.md, "Digests"; 2.3 digests blocks of runs: :func:`block_digest`).
 
     Each part is preceded by its length (8 bytes, little-endian): the run's row of the per-run
     matrix, its scene JSON, its summary message, its rows of the event, sample and torque
@@ -252,6 +272,45 @@ def run_digest(
         h.update(len(part).to_bytes(8, "little"))
         h.update(part)
     return h.hexdigest().encode()
+
+
+def block_digest(parts: Sequence[bytes | memoryview]) -> int:
+    """CRC-32 of one block of runs (2.3, docs/archive-format.md "Digests"): each part preceded
+    by its length (8 bytes, little-endian), as an unsigned 32-bit integer."""
+    crc = 0
+    for part in parts:
+        crc = zlib.crc32(memoryview(part).nbytes.to_bytes(8, "little"), crc)
+        crc = zlib.crc32(part, crc)
+    return crc
+
+
+def digest_parts(
+    scene: dict[str, NDArray[Any]],
+    fixed: NDArray[np.uint8],
+    parts: Sequence[tuple[NDArray[Any], NDArray[np.int64]]],
+    a: int,
+    b: int,
+) -> list[bytes | memoryview]:
+    """The digested bytes of the block of runs ``a:b`` (2.3, docs/archive-format.md
+    "Digests"): the base scene, the override paths, the block's rows of the fixed columns and of
+    the override values, then its slice of each of ``parts`` (a dataset's row matrix and its
+    offsets: override JSON, messages, events, samples, torques, record groups in order)."""
+    values = scene["override_values"]
+    out: list[bytes | memoryview] = [
+        np.ascontiguousarray(scene["base_json"]).data,
+        np.ascontiguousarray(scene["override_paths"]).tobytes(),
+        fixed[a:b].data,
+        np.ascontiguousarray(values[a:b]).tobytes(),
+    ]
+    for matrix, offsets in parts:
+        out.append(np.ascontiguousarray(matrix[int(offsets[a]) : int(offsets[b])]).data)
+    return out
+
+
+def block_runs_for(has_rows: bool) -> int:
+    """Runs per digest block: one when the segment holds samples, torques or record-group rows
+    (a run is read alone), else :data:`SUMMARY_BLOCK_RUNS`."""
+    return 1 if has_rows else SUMMARY_BLOCK_RUNS
 
 
 def row_matrix(columns: Sequence[NDArray[Any]], n: int) -> NDArray[np.uint8]:
@@ -283,10 +342,12 @@ def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
 
 
 def format_version_of(columns: dict[str, Any]) -> str:
-    """The segment format version of a segment's datasets: 2.2 when they hold a run's pins
-    (:data:`PIN_GROUPS`), 2.1 when they hold other per-run record groups, else 2.0 (a segment
-    without them is exactly a 2.0 segment)."""
+    """The segment format version of a segment's datasets: 2.3 for the layout this code writes
+    (a ``scene`` group); for the earlier layout 2.2 when they hold a run's pins
+    (:data:`PIN_GROUPS`), 2.1 when they hold other per-run record groups, else 2.0."""
+    if "scene" in columns:
+        return SCENE_FORMAT_VERSION
     extra = {g for g in columns if g not in FIXED_GROUPS and not g.startswith("_")}
     if extra & set(PIN_GROUPS):
         return PINS_FORMAT_VERSION
-    return RECORDS_FORMAT_VERSION if extra else SEGMENT_FORMAT_VERSION
+    return RECORDS_FORMAT_VERSION if extra else "2.0"

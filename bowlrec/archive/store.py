@@ -164,9 +164,10 @@ class Archive:
         """:meth:`reindex` with its report (:func:`~.maintenance.reindex`)."""
         return maintenance.reindex(self.directory)
 
-    def compact(self, *, target_runs: int = 10_000) -> dict[str, int]:
-        """Rewrite segments with dead copies, merge small ones (:func:`~.compaction.compact`)."""
-        return compaction.compact(self.directory, target_runs=target_runs)
+    def compact(self, *, target_runs: int = 10_000, upgrade: bool = False) -> dict[str, int]:
+        """Rewrite segments with dead copies, merge small ones; with ``upgrade`` rewrite the
+        segments of an older format instead (:func:`~.compaction.compact`)."""
+        return compaction.compact(self.directory, target_runs=target_runs, upgrade=upgrade)
 
     # -- queries (the index only) ------------------------------------------------------------
 

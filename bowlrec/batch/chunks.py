@@ -343,7 +343,7 @@ def _run_fast(
     fast = _fast(ctx)
     assert ctx.fast_paths is not None
     columns = ctx.job.columns(task.start, task.stop, ctx.fast_paths)
-    chunk = fast.prepare(index, columns, scenes=task.target is not None)
+    chunk = fast.prepare(index, columns, scenes=False)  # a segment stores base and values
     table = ChunkTable.empty(index, dict(chunk.params))
     table.run_id = list(chunk.run_ids)
     result = ChunkResult(task.start, task.stop, table)
@@ -451,7 +451,10 @@ def _store_fast(
             "wall_time_s": np.full(rows.size, result.simulate_s / max(1, ok.size)),
         },
         created_at_ns=time.time_ns(),
-        scene_json=[chunk.scene_json[i] for i in rows.tolist()],
+        scene_base=fast.scene_base,
+        scene_paths=fast.scene_paths,
+        # NaN where a sweep block leaves the path alone: the base scene's value
+        scene_values=np.column_stack([chunk.params[p] for p in fast.paths])[rows],
         summary={name: cols[name][k] for name in KERNEL_COLUMNS},
         messages=_messages(cols, k.tolist(), packed),
         events=events,

@@ -30,7 +30,7 @@ import numpy as np
 import pydantic_core
 
 from bowlrec.archive.run_id import RUN_ID_LENGTH, canonical_plan
-from bowlrec.batch.paths import apply_override
+from bowlrec.batch.paths import apply_override, parse_path
 from bowlrec.versions import PHYSICS_VERSION
 
 if TYPE_CHECKING:
@@ -136,6 +136,10 @@ class FastSweep:
         # Scene.model_dump_json() writes it (pydantic's own float text), so a run stores the
         # same bytes whichever path prepared it
         data = base_scene.model_dump(mode="json")
+        #: how a segment stores the chunk's scenes (format 2.3): this base, and per run the
+        #: swept values at these paths
+        self.scene_base = pydantic_core.to_json(data)
+        self.scene_paths: list[list[str | int]] = [list(parse_path(p)) for p in self.paths]
         for k, path in enumerate(self.paths):
             apply_override(data, path, _MARK.format(k))
         self._scene_template = _Template(
@@ -165,7 +169,8 @@ class FastSweep:
     ) -> FastChunk:
         """Kernel inputs, run IDs and scene JSON of the runs whose swept values are
         ``columns`` (path -> float64 array; NaN: the base scene's value). ``scenes`` False
-        skips the scene JSON (nothing will be stored: ``scene_json`` is empty)."""
+        skips the scene JSON (``scene_json`` is empty: a segment stores :attr:`scene_base` and
+        the swept values instead)."""
         from bowlrec.core.batch import PackedPlans
 
         n = int(index.shape[0])

@@ -407,10 +407,11 @@ def compact(
 
 @archive_app.command("migrate")
 def migrate(
-    archive: Annotated[Path, typer.Argument(help="Archive directory (format 1.0).")],
+    archive: Annotated[Path, typer.Argument(help="Archive directory (format 1.0 or 2.x).")],
     quiet: QuietOption = False,
 ) -> None:
-    """Convert a format 1.0 archive (one file per run) to format 2.0 in place.
+    """Convert a format 1.0 archive (one file per run) to format 2.0 in place, or rewrite a 2.x
+    archive's segments of an older segment format (2.0-2.2) in the current one (2.3).
 
     Run IDs stay the same. The 1.0 files are kept in ARCHIVE/v1-archive/ (delete it once the
     migrated archive looks right); a migration that was interrupted resumes when run again.
@@ -430,7 +431,17 @@ def migrate(
     else:
         report = run_migration(archive)
     if "already" in report:
-        typer.echo(f"{archive} is already format {report['already']} ({report['runs']} runs)")
+        typer.echo(
+            f"{archive} is format {report['already']} ({report['runs']} runs): "
+            f"{report['segments_rewritten']} segment(s) of an older segment format rewritten "
+            f"into {report['segments_written']}"
+            + (
+                f", {report['segments_left']} left as they are (damaged or unreadable: "
+                "`bowlrec runs repair`)"
+                if report["segments_left"]
+                else ""
+            )
+        )
         return
     typer.echo(
         f"{archive}: format {report['from']} -> {report['to']}: {report['runs']} run(s) in "
