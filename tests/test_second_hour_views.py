@@ -152,3 +152,54 @@ def test_the_seeded_job_changes_the_hook() -> None:
     hooks = [r["hook_m"] for r in rows]
     assert min(abs(h) for h in hooks) > 0.01
     assert max(hooks) - min(hooks) > 0.1  # over 10 cm between the runs
+
+
+# -- item 9a: jobs run from the command line are the archive's jobs too ---------------------------
+
+
+def test_a_command_line_batch_is_listed_on_the_jobs_page(tmp_path: Path, app_server: Any) -> None:
+    """``bowlrec batch JOB`` records its job in the archive (``jobs/cli/``); the Jobs page
+    lists it beside the service's, its page shows it done and its results name its runs. A
+    record a killed batch left ``running`` reads as interrupted; a damaged one is listed as
+    damaged and breaks nothing."""
+    pytest.importorskip("fastapi")
+    root = tmp_path / "archive"
+    job = {
+        "format": "bowlrec-job",
+        "name": "from-the-shell",
+        "base": {"name": "cli", "options": {"record": "summary"}},
+        "sweep": {"kind": "grid", "axes": {"delivery.speed_mps": [7.0, 8.0, 9.0]}},
+    }
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(job))
+    out = tmp_path / "t.csv"
+    done = runner.invoke(
+        app, ["batch", str(path), "-a", str(root), "-j", "0", "-q", "-o", str(out)]
+    )
+    assert done.exit_code == 0, done.output
+    (record,) = [p for p in (root / "jobs" / "cli").glob("*.json") if ".spec." not in p.name]
+    job_id = record.stem
+    assert json.loads(record.read_text())["status"] == "done"
+
+    jobs_dir = root / "jobs" / "cli"
+    killed = json.loads(record.read_text())
+    killed.update(job_id="a" * 16, status="running", done=1)
+    (jobs_dir / f"{'a' * 16}.json").write_text(json.dumps(killed))
+    (jobs_dir / f"{'a' * 16}.spec.json").write_text((jobs_dir / f"{job_id}.spec.json").read_text())
+    (jobs_dir / f"{'b' * 16}.json").write_text("{truncated")
+
+    server = app_server(root)
+    with server.client() as client:
+        html = client.get("/ui/jobs").text
+        assert job_id in html and "from-the-shell" in html and "command line" in html
+        assert "a" * 16 in html and "interrupted" in html
+        assert "b" * 16 in html and "damaged" in html
+        page = client.get(f"/ui/jobs/{job_id}")
+        assert page.status_code == 200 and "delivery.speed_mps" in page.text
+        assert 'id="cancel-job"' not in page.text  # its batch runs in its own process
+        rows = client.get(f"/jobs/{job_id}/results").json()
+        assert [r["values"]["delivery.speed_mps"] for r in rows] == [7.0, 8.0, 9.0]
+        assert all(r["run_id"] and r["outcome"] == "pins" for r in rows)
+        events = client.get(f"/jobs/{job_id}/events").text
+        assert '"status":"done"' in events and '"done":3' in events
+        assert client.get("/jobs/" + "c" * 16 + "/events").status_code == 404

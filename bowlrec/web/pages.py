@@ -29,6 +29,7 @@ from bowlrec.core.codes import OUTCOMES
 from bowlrec.errors import BowlrecError, InputError
 from bowlrec.versions import __version__
 
+from .jobs import all_jobs
 from .seeds import SEEDS
 from .tables import PAGE_SIZES, RANGES, RUN_COLUMNS, RunsQuery, runs_page
 
@@ -322,7 +323,8 @@ def jobs_page(request: Request, signed_in: SignedIn) -> Response:
         return _render(request, False, "jobs.html")
     state = _state(request)
     seeds = [{"label": s.label, "kind": s.kind, "text": s.text()} for s in SEEDS]
-    return _render(request, True, "jobs.html", title="Jobs", jobs=state.jobs.list(), seeds=seeds)
+    jobs = all_jobs(state).list()
+    return _render(request, True, "jobs.html", title="Jobs", jobs=jobs, seeds=seeds)
 
 
 @pages.get("/ui/jobs/{job_id}", response_class=HTMLResponse)
@@ -334,8 +336,9 @@ def job_page(request: Request, job_id: str, signed_in: SignedIn) -> Response:
     from .api import JOB_METRICS, job_axes
 
     try:
-        status = state.jobs.get(job_id, with_runs=False)
-        axes = job_axes(state.jobs.spec(job_id))
+        jobs = all_jobs(state)
+        status = jobs.get(job_id, with_runs=False)
+        axes = job_axes(jobs.spec(job_id))
     except BowlrecError as err:
         return _error_page(request, err)
     return _render(
