@@ -17,7 +17,7 @@ import uuid
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["PART_SUFFIX", "atomic_path", "fsync_dir", "remove_stale_parts"]
+__all__ = ["PART_SUFFIX", "atomic_path", "fsync_dir", "remove_stale_parts", "unlocked"]
 
 PART_SUFFIX = ".part"
 
@@ -73,7 +73,7 @@ def atomic_path(
             os.close(lock_fd)
 
 
-def _unlocked(path: Path) -> bool:
+def unlocked(path: Path) -> bool:
     """True when no process holds a flock on ``path`` (a killed writer's lock is gone)."""
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -100,7 +100,7 @@ def remove_stale_parts(directory: Path, *, min_age_s: float = 0.0) -> int:
         with contextlib.suppress(FileNotFoundError):
             if min_age_s > 0 and now - p.stat().st_mtime < min_age_s:
                 continue
-            if not _unlocked(p):
+            if not unlocked(p):
                 continue
             p.unlink()
             n += 1

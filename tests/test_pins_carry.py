@@ -148,7 +148,7 @@ def test_the_heat_map_shows_the_strike_percentages() -> None:
         r.get_xy() == (b0, a0) and r.get_width() == b1 - b0 and r.get_height() == a1 - a0
         for r in window
     )
-    assert "(right-hander's count)" in ax.get_xlabel()
+    assert "(right-hander's count, from the right gutter)" in ax.get_xlabel()
     assert ax.xaxis_inverted()
     svg = figure_bytes(fig, "svg", tight=False)
     ET.fromstring(svg)
@@ -160,6 +160,6 @@ def test_the_heat_map_sorts_its_axes_and_checks_its_shape() -> None:
     ax = fig.axes[0]
     mesh = next(c for c in ax.collections if isinstance(c, QuadMesh))
     assert np.array_equal(np.asarray(mesh.get_array()).reshape(2, 2), [[40, 30], [20, 10]])
-    assert "(left-hander's count)" in ax.get_xlabel()
+    assert "(left-hander's count, from the left gutter)" in ax.get_xlabel()
     with pytest.raises(ValueError, match="shape"):
         strike_heatmap((17.0,), (4.0, 6.0), [[1.0, 2.0]])

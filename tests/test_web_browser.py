@@ -12,6 +12,7 @@ Skips (with the reason) only when no Chromium can be found: ``.ci/run`` installs
 from __future__ import annotations
 
 import http.server
+import json
 import os
 import re
 import shutil
@@ -59,6 +60,7 @@ pytestmark = [
 #: the rerun viewer compiles 43 MB of wasm with software rendering: allow it this long
 VIEWER_TIMEOUT_MS = 240_000
 TOKEN = "t" * 40
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _populate(archive_dir: Path) -> list[str]:
@@ -230,7 +232,7 @@ def test_a_run_page_shows_summary_report_figure_and_downloads(
     page.wait_for_url(re.compile(r"/ui/runs/[0-9a-f]+"))
     assert "speed-6.5" in page.locator("h1").inner_text()
     summary = page.locator("#summary").inner_text()
-    assert "hook (cm)" in summary and "pins" in summary
+    assert "hook" in summary and "pins" in summary
     assert "entry angle (deg)" in page.locator("#report").inner_text()
     page.locator("#run-figure").scroll_into_view_if_needed()
     _loaded(page, "#run-figure")
@@ -437,3 +439,43 @@ def test_pages_are_served_without_external_urls(site: tuple[Server, list[str]]) 
             html = c.get(path).text
             for url in re.findall(r'(?:src|href|action)="([^"]+)"', html):
                 assert urlsplit(url).netloc in ("", urlsplit(srv.url).netloc), (path, url)
+
+
+def test_the_runs_table_fits_a_1280_px_window(
+    browser: Any, tmp_path: Path, module_serve: Any
+) -> None:
+    """At 1280x800 the runs table shows every column, hook, pocket and record included,
+    without a horizontal scroll, also with long names, a library ball and a pattern (a
+    bowler's run)."""
+    root = tmp_path / "archive"
+    _populate(root)
+    archive = Archive(root)
+    bowler = json.loads((ROOT / "examples/bowler/pocket-right.json").read_text())
+    bowler["name"] = "a right-hander's pocket shot from board twenty, long name"
+    bowler["options"]["record"] = "summary"
+    from bowlrec.scene_input import parse_scene
+
+    simulate_into(archive, parse_scene(bowler, archive.balls).scene)
+    archive.close()
+    srv = module_serve(root)
+    context = browser.new_context(base_url=srv.url, viewport={"width": 1280, "height": 800})
+    watch = Watch(srv.url)
+    watch.attach(context)
+    page = watch.page(context)
+    try:
+        page.goto("/")
+        table = page.locator("#runs-table")
+        box = table.bounding_box()
+        scroller = table.locator("xpath=..")
+        scroll_width = scroller.evaluate("e => e.scrollWidth")
+        client_width = scroller.evaluate("e => e.clientWidth")
+        assert box is not None and box["x"] + box["width"] <= 1280, box
+        assert scroll_width <= client_width, (scroll_width, client_width)
+        for header in ("hook", "pocket", "record"):
+            b = table.locator("thead th", has_text=header).first.bounding_box()
+            assert b is not None and b["x"] + b["width"] <= 1280, (header, b)
+        name = table.locator("td.clip.name", has_text="long name").first
+        assert name.get_attribute("title") == bowler["name"]  # the whole name on hover
+    finally:
+        context.close()
+    watch.check()

@@ -187,27 +187,22 @@ def bowler_report_of(run: RunData) -> dict[str, Any] | None:
     rpm, boards, ft and deg) of ``run`` on a :class:`~bowlrec.bowling.lane.BowlerLane` of the
     scene's lane length and width.
 
-    The handedness is inferred from the hook: boards are counted from the bowling hand's
-    gutter, and a right-hander's ball hooks left, so a path that ends to the left (+y) of its
-    outermost point toward the right gutter, by more than it ends right of its outermost point
-    toward the left gutter, is a right-hander's; otherwise a left-hander's (a straight path
-    counts as a right-hander's).
+    The handedness is inferred from the hook
+    (:func:`~bowlrec.bowling.report.inferred_handedness`): boards are counted from the bowling
+    hand's gutter.
 
     None when the report cannot be made: the run has no samples, or its lane is outside the
     widths and lengths a bowler's lane may have.
     """
-    import numpy as np
     from pydantic import ValidationError
 
-    from bowlrec.bowling.lane import BowlerLane, Handedness
-    from bowlrec.bowling.report import bowler_report
+    from bowlrec.bowling.lane import BowlerLane
+    from bowlrec.bowling.report import bowler_report, inferred_handedness
     from bowlrec.units import FT_M, IN_M
 
     if run.trajectory.n_samples == 0:
         return None
-    y = np.asarray(run.trajectory.position_m[:, 1], dtype=np.float64)
-    y_end = float(y[-1])
-    handedness: Handedness = "right" if y_end - float(y.min()) >= float(y.max()) - y_end else "left"
+    handedness = inferred_handedness(run.trajectory.position_m[:, 1])
     try:
         lane = BowlerLane(
             length_ft=float(run.plan.lane_length_m) / FT_M,

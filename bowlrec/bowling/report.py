@@ -54,7 +54,7 @@ from dataclasses import asdict, dataclass
 from typing import Any, Protocol
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from bowlrec.core.codes import OBS_END, OBS_RELEASE, OBS_TURN
 from bowlrec.core.trajectory import Trajectory
@@ -69,9 +69,13 @@ __all__ = [
     "LAUNCH_ANGLE_FT",
     "LAUNCH_SPEED_FT",
     "BowlerReport",
+    "board_count",
     "bowler_report",
+    "inferred_handedness",
     "observed_run",
     "report_stations",
+    "sideways",
+    "summary_rows",
 ]
 
 #: bisection steps when solving x(s) = X on one step (2**-60 of the step: below rounding)
@@ -83,6 +87,47 @@ LAUNCH_ANGLE_FT = 10.0
 ENTRY_FT = (51.0, 55.0, 57.0, 59.5)
 #: how close to the last state a station counts as the pins (m)
 _AT_END_M = 1e-9
+
+
+def board_count(handedness: str) -> str:
+    """How a view counts boards, said on it: the bowler's count, from the bowling hand's
+    gutter ("bowler's count, from the left gutter" for a left-hander)."""
+    side = "left" if handedness == "left" else "right"
+    return f"bowler's count, from the {side} gutter"
+
+
+def inferred_handedness(y_m: ArrayLike) -> Handedness:
+    """The bowling hand of a path from its lane-frame y samples (m): a right-hander's ball
+    hooks left, so a path that ends to the left (+y) of its outermost point toward the right
+    gutter, by more than it ends right of its outermost point toward the left gutter, is a
+    right-hander's; otherwise a left-hander's (a straight path counts as a right-hander's)."""
+    y = np.asarray(y_m, dtype=np.float64).ravel()
+    if y.size == 0:
+        return "right"
+    y_end = float(y[-1])
+    return "right" if y_end - float(y.min()) >= float(y.max()) - y_end else "left"
+
+
+def sideways(value: float, spec: str, unit: str) -> str:
+    """A signed lane-frame quantity (+y: the bowler's left, facing the pins) as its magnitude
+    and its side: ``sideways(-1.08, ".2f", "m")`` -> "1.08 m to the right" (no side when it
+    rounds to zero; a unit "°" follows the number without a space)."""
+    text = f"{abs(value):{spec}}" + ("" if unit == "°" else " ") + unit
+    if float(f"{abs(value):{spec}}") == 0.0:
+        return text
+    return f"{text} to the {'left' if value > 0 else 'right'}"
+
+
+def summary_rows(hook_m: float | None, pocket_deg: float | None) -> list[tuple[str, str]]:
+    """The hook and pocket-angle rows of a run's summary as a bowler reads them: magnitudes
+    with their side named (the signed lane-frame values are the archive's ``hook_m`` and
+    ``pocket_deg``); none for a ball that did not reach the pins."""
+    if hook_m is None or pocket_deg is None or not math.isfinite(hook_m):
+        return []
+    return [
+        ("hook", sideways(100.0 * hook_m, ".2f", "cm")),
+        ("pocket angle", sideways(pocket_deg, ".3f", "deg")),
+    ]
 
 
 @dataclass(frozen=True)

@@ -92,6 +92,8 @@ class ScatterResult:
     entry_angle_deg: NDArray[np.float64]
     outcomes: NDArray[np.str_]
     seconds: float
+    #: whose count the entry boards are in (from that hand's gutter)
+    handedness: str = "right"
 
     @property
     def pins_share(self) -> float:
@@ -168,6 +170,7 @@ def release_scatter(
         entry_angle_deg=entry_angle,
         outcomes=outcomes,
         seconds=time.perf_counter() - t0,
+        handedness=d.handedness,
     )
 
 
@@ -238,6 +241,8 @@ class ToleranceMap:
     scene_target: float
     scene_speed_mph: float
     seconds: float
+    #: whose count the boards are in (from that hand's gutter)
+    handedness: str = "right"
 
     @property
     def in_pocket(self) -> NDArray[np.bool_]:
@@ -351,4 +356,5 @@ def tolerance_map(
         scene_target=float(base_target),
         scene_speed_mph=float(d.speed_mph),
         seconds=time.perf_counter() - t0,
+        handedness=d.handedness,
     )

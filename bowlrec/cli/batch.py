@@ -133,7 +133,8 @@ def batch(
     Resumable: rerunning skips archived runs. Prints one summary line (also with --quiet);
     exits 1 when runs failed (unless --allow-failures), 130 after Ctrl-C.
     """
-    from bowlrec.batch import TableWriter, load_job, run_job, table_paths
+    from bowlrec.batch import TableWriter, load_job, table_paths
+    from bowlrec.batch.manifest import run_recorded_job  # listed on the web app's Jobs page
     from bowlrec.batch.runner import param_columns
     from bowlrec.batch.table import param_types
 
@@ -166,7 +167,7 @@ def batch(
     last = _LastProgress()
     try:
         with _progress(show, spec.count(), last) as update:
-            result = run_job(
+            result = run_recorded_job(
                 spec,
                 store,
                 base_dir=job.parent,

@@ -190,7 +190,10 @@ def _bowler_report(parsed: Any, plan: Any) -> dict[str, Any] | None:
 def _print_bowler(report: dict[str, Any]) -> None:
     from rich.table import Table
 
-    table = Table(title="in bowlers' terms", show_header=False)
+    from bowlrec.bowling.report import board_count
+
+    title = f"in bowlers' terms (boards: {board_count(report['handedness'])})"
+    table = Table(title=title, show_header=False)
     for key, value in report.items():
         text = f"{value:.2f}" if isinstance(value, float) else str(value)
         table.add_row(key, text)
@@ -232,15 +235,16 @@ def _print_pins(pins: Any) -> None:
 def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:
     from rich.table import Table
 
+    from bowlrec.bowling.report import summary_rows
+
     s = traj.summary
     table = Table(title=f"bowlrec: {name}", show_header=False)
     table.add_row("outcome", f"{s.outcome} ({s.message})")
     table.add_row("slide", "never rolls" if s.slide_m is None else f"{s.slide_m:.4f} m")
-    if s.hook_m is not None:
-        table.add_row("hook", f"{100 * s.hook_m:.2f} cm")
-        table.add_row("pocket angle", f"{s.pocket_deg:.3f} deg")
+    for label, text in summary_rows(s.hook_m, s.pocket_deg):  # sides named, not signs
+        table.add_row(label, text)
     table.add_row("time", f"{s.time_s:.4f} s")
-    table.add_row("end position", f"x = {s.x_end_m:.4f} m, y = {s.y_end_m:.4f} m")
+    table.add_row("end position (lane frame)", f"x = {s.x_end_m:.4f} m, y = {s.y_end_m:.4f} m")
     table.add_row("end speed", f"{s.speed_end_mps:.3f} m/s")
     table.add_row("end rev rate", f"{s.rev_rate_end_rpm:.1f} rpm")
     table.add_row("events", ", ".join(f"{e.kind}@{e.x_m:.2f}m" for e in traj.events))

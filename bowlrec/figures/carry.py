@@ -20,6 +20,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 from numpy.typing import ArrayLike, NDArray
 
+from bowlrec.bowling.report import board_count
+
 from .oil import vector_colorbar
 from .render import new_figure, save_figure
 
@@ -92,7 +94,8 @@ def strike_heatmap(
         )  # fmt: skip
         ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.13), fontsize=8, frameon=False)
     who = "right-hander's" if hand == "right" else "left-hander's"
-    ax.set_xlabel(f"entry board at the head pin's line ({who} count)")
+    gutter = board_count(hand).partition(", ")[2]  # from the bowling hand's gutter
+    ax.set_xlabel(f"entry board at the head pin's line ({who} count, {gutter})")
     ax.set_ylabel("entry angle (deg)")
     ax.set_xticks(list(boards))
     ax.set_xticklabels([f"{b:g}" for b in boards], fontsize=7)

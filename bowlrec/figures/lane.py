@@ -31,11 +31,13 @@ __all__ = [
     "FIGURE_WIDTH_IN",
     "GUTTER_PAGE_IN",
     "MAX_DISTINCT_MU",
+    "MU_DIGITS",
     "LaneBox",
     "draw_friction",
     "draw_lane_marks",
     "head_pin_y",
     "lane_axes",
+    "mu_labels",
 ]
 
 Array = NDArray[np.float64]
@@ -48,6 +50,8 @@ GUTTER_PAGE_IN = 0.15
 AXES_WIDTH_IN = 9.4
 #: total figure width (inches)
 FIGURE_WIDTH_IN = 12.0
+#: significant digits of a colorbar's mu labels (more only to tell two values apart)
+MU_DIGITS = 3
 #: up to this many distinct mu values get a discrete colorbar
 MAX_DISTINCT_MU = 6
 
@@ -99,11 +103,13 @@ def head_pin_y(width_m: float) -> float:
     return (HEAD_PIN_BOARD - 0.5) * width_m / BOARDS
 
 
-def lane_axes(box: LaneBox) -> tuple[Figure, Axes]:
-    """A figure sized so the lane fills its width, with y drawn ``box.ex`` times the x scale.
+def lane_axes(box: LaneBox, handedness: str = "right") -> tuple[Figure, Axes]:
+    """A figure sized so the lane fills its width, with y drawn ``box.ex`` times the x scale:
+    y in m from the right gutter (the lane frame) on the left axis, boards in the bowler's
+    count of ``handedness`` on the right one.
 
-    The main axes has gid "lane"; the figure is saved with a tight bounding box, so spare
-    height is trimmed.
+    The main axes has gid "lane" (its board axis gid "boards"); the figure is saved with a
+    tight bounding box, so spare height is trimmed.
     """
     axes_h = box.y_page_in(box.y_lim[1] - box.y_lim[0])
     fig = new_figure(figsize=(FIGURE_WIDTH_IN, axes_h + 2.2), layout="constrained")
@@ -114,24 +120,31 @@ def lane_axes(box: LaneBox) -> tuple[Figure, Axes]:
     ax.set_aspect(box.ex, adjustable="box")
     ax.set_facecolor("white")
     ax.set_xlabel("x, distance from the foul line (m)")
-    ax.set_ylabel(f"y from right gutter (m)\n(width ×{box.ex:g})")
+    ax.set_ylabel(f"y from the right gutter (m,\nlane frame; width ×{box.ex:g})")
     ax.set_xticks(np.arange(0.0, box.x_lim[1], 2.0))
-    _board_axis(ax, box)
+    _board_axis(ax, box, handedness)
     return fig, ax
 
 
-def _board_axis(ax: Axes, box: LaneBox) -> None:
-    """A right-hand y axis in boards counted from the right gutter."""
+def _board_axis(ax: Axes, box: LaneBox, handedness: str) -> None:
+    """A right-hand y axis in boards counted from the bowling hand's gutter (a left-hander's
+    board 10 is 10 boards from the left gutter, drawn near the top)."""
     board_m = box.board_m
+    left = handedness == "left"
+    width_m = box.width_m
 
     def to_boards(y_m: ArrayLike) -> Array:
-        return np.asarray(y_m, dtype=np.float64) / board_m
+        y = np.asarray(y_m, dtype=np.float64)
+        return (width_m - y) / board_m if left else y / board_m
 
     def to_m(boards_: ArrayLike) -> Array:
-        return np.asarray(boards_, dtype=np.float64) * board_m
+        b = np.asarray(boards_, dtype=np.float64) * board_m
+        return width_m - b if left else b
 
     boards = ax.secondary_yaxis("right", functions=(to_boards, to_m))
-    boards.set_ylabel("board (from right)")
+    boards.set_gid("boards")
+    side = "left" if left else "right"
+    boards.set_ylabel(f"board (bowler's count,\nfrom the {side} gutter)")
     step = 5 if box.y_page_in(box.width_m) > 2.5 else 10
     boards.set_yticks([*range(0, BOARDS - 2, step), BOARDS])
 
@@ -163,8 +176,19 @@ def draw_friction(fig: Figure, ax: Axes, cells: Sequence[FrictionCell]) -> None:
     bar = fig.colorbar(coll, cax=cax)
     bar.set_label("friction μ\n(oil darker)")
     if values.size <= MAX_DISTINCT_MU:
-        bar.set_ticks(list(range(values.size)), labels=[f"{v:g}" for v in values])
+        bar.set_ticks(list(range(values.size)), labels=mu_labels(values))
         bar.minorticks_off()
+
+
+def mu_labels(values: ArrayLike) -> list[str]:
+    """Colorbar labels of distinct mu ``values``: MU_DIGITS significant digits (0.188465 ->
+    "0.188"), more only where two values would read the same (at most 6)."""
+    vs = [float(v) for v in np.asarray(values, dtype=np.float64).ravel()]
+    for digits in range(MU_DIGITS, 7):
+        labels = [f"{v:.{digits}g}" for v in vs]
+        if len(set(labels)) == len(set(vs)):
+            return labels
+    return [f"{v:.6g}" for v in vs]
 
 
 def draw_lane_marks(ax: Axes, box: LaneBox, *, pin_label: bool = True) -> None:

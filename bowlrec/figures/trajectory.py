@@ -47,6 +47,7 @@ __all__ = [
     "axis_arrow_samples",
     "plot_runs",
     "run_label",
+    "runs_handedness",
     "runs_figure",
     "write_plot",
 ]
@@ -122,8 +123,9 @@ def runs_figure(
     """The lane figure of ``runs`` as a :class:`~matplotlib.figure.Figure` (not written).
 
     Axes: x is the distance from the foul line toward the pins (m, horizontal); y is the
-    distance from the right gutter toward the left (m on the left axis, boards counted from the
-    right gutter on the right axis; a lane has 39 boards), so a ball hooking left goes up. The
+    distance from the right gutter toward the left (m on the left axis, the lane frame; boards
+    in the bowler's count on the right axis, from the right gutter, or from the left one when
+    every run is a left-hander's; a lane has 39 boards), so a ball hooking left goes up. The
     width is drawn ``exaggerate`` times (default 4.5, the paper's value) the length scale.
 
     Drawn: the friction map of the first run's lane (cells shaded by mu, oil darker, with a mu
@@ -144,7 +146,9 @@ def runs_figure(
     steeper than in the lane.
 
     The legend has one entry per run: its name, slide (m; "no roll" if it never rolls), hook
-    (cm) and pocket angle (deg), or the outcome when the ball does not reach the pins.
+    (cm) and pocket angle (deg) as magnitudes with their side named ("to the left": +y), or
+    the outcome when the ball does not reach the pins. The board axis counts boards as the
+    bowler does, from the bowling hand's gutter (:func:`runs_handedness`), and says so.
 
     Up to MAX_PLAIN_RUNS runs, each has its own color from a fixed palette and the legend sits
     below the lane. More runs are numbered 1, 2, ... in order
@@ -173,7 +177,7 @@ def runs_figure(
 
     numbered = len(runs) > MAX_PLAIN_RUNS
     box = _lane_box(runs, ex, numbered=numbered)
-    fig, ax = lane_axes(box)
+    fig, ax = lane_axes(box, runs_handedness(runs))
     draw_friction(fig, ax, friction_cells(runs[0].plan))
     draw_lane_marks(ax, box, pin_label=not numbered)
     if numbered:
@@ -360,6 +364,15 @@ def _draw_axis_arrows(
 # legend, key and title
 
 
+def runs_handedness(runs: Sequence[RunData]) -> str:
+    """Whose count the board axis uses: "left" when every run's path is a left-hander's
+    (:func:`~bowlrec.bowling.report.inferred_handedness`), else "right"."""
+    from bowlrec.bowling.report import inferred_handedness
+
+    hands = {inferred_handedness(r.trajectory.position_m[:, 1]) for r in runs}
+    return "left" if hands == {"left"} else "right"
+
+
 def run_label(run: RunData, *, short: bool = False) -> str:
     """Legend text: name, then slide, hook and pocket angle (or the outcome); ``short`` says
     "no roll" without "(slides to the end)"."""
@@ -367,7 +380,10 @@ def run_label(run: RunData, *, short: bool = False) -> str:
     no_roll = "no roll" if short else "no roll (slides to the end)"
     slide = no_roll if s.slide_m is None else f"slide {s.slide_m:.2f} m"
     if s.outcome == "pins" and s.hook_m is not None and s.pocket_deg is not None:
-        result = f"hook {s.hook_m * 100:.0f} cm, pocket {s.pocket_deg:.1f}°"
+        from bowlrec.bowling.report import sideways
+
+        hook = sideways(100.0 * s.hook_m, ".0f", "cm")
+        result = f"hook {hook}, pocket {sideways(s.pocket_deg, '.1f', '°')}"
     else:
         result = f"{s.outcome} at x = {s.x_end_m:.2f} m"
     return f"{run.name}: {slide}, {result}"

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from bowlrec.bowling.report import board_count
 from bowlrec.spec._base import fmt
 
 from .render import new_figure, save_figure
@@ -54,7 +55,7 @@ def scatter_figure(result: ScatterResult, title: str = "") -> Figure:
             p.angle_max_deg - p.angle_min_deg, fill=False, edgecolor="tab:green", lw=1.5,
         )
     )  # fmt: skip
-    ax.set_xlabel("entry board at the head pin line (bowler's count)")
+    ax.set_xlabel(f"entry board at the head pin line ({board_count(result.handedness)})")
     ax.set_ylabel("entry angle (deg)")
     ax.invert_xaxis()
     ax.grid(alpha=0.3)
@@ -79,7 +80,7 @@ def tolerance_figure(tmap: ToleranceMap, title: str = "") -> Figure:
         tmap.targets, tmap.speeds_mph, tmap.entry_board, cmap="coolwarm", shading="nearest",
         vmin=tmap.pocket.board - 8.0, vmax=tmap.pocket.board + 8.0,
     )  # fmt: skip
-    fig.colorbar(mesh, ax=ax, label="entry board")
+    fig.colorbar(mesh, ax=ax, label=f"entry board ({board_count(tmap.handedness)})")
     p = tmap.pocket
     board = np.ma.masked_invalid(tmap.entry_board)
     angle = np.ma.masked_invalid(tmap.entry_angle_deg)
@@ -92,7 +93,7 @@ def tolerance_figure(tmap: ToleranceMap, title: str = "") -> Figure:
                         linestyles="dashed", linewidths=1.0)  # fmt: skip
         ax.clabel(cs, fmt="%g deg", fontsize=7)
     ax.plot([tmap.scene_target], [tmap.scene_speed_mph], "k*", ms=12, label="the scene's shot")
-    ax.set_xlabel("target board at the arrows")
+    ax.set_xlabel(f"target board at the arrows ({board_count(tmap.handedness)})")
     ax.set_ylabel("release speed (mph)")
     ax.invert_xaxis()
     ax.legend(loc="upper right", fontsize=8)

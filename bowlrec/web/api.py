@@ -27,6 +27,8 @@ from fastapi.responses import Response, StreamingResponse
 from bowlrec.atomic_files import atomic_path
 from bowlrec.errors import InputError, NotFoundError
 
+from .jobs import all_jobs
+
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
     from bowlrec.spec.run import RunData
@@ -48,12 +50,13 @@ MEDIA = {"svg": "image/svg+xml", "png": "image/png"}
 MAX_COMPARE = 40
 #: job results listed (and plotted) at most
 MAX_JOB_ROWS = 5000
-#: metrics a job's plot offers on its y axis: index column -> label (scaled to its unit)
+#: metrics a job's plot offers on its y axis: index column -> label (scaled to its unit); the
+#: archive's signed lane-frame values (+: toward the left gutter)
 JOB_METRICS: dict[str, tuple[str, float]] = {
-    "hook_m": ("hook (cm)", 100.0),
-    "pocket_deg": ("pocket angle (deg)", 1.0),
+    "hook_m": ("hook (cm, +left)", 100.0),
+    "pocket_deg": ("pocket angle (deg, +left)", 1.0),
     "slide_m": ("slide (m)", 1.0),
-    "y_end_m": ("end y (m)", 1.0),
+    "y_end_m": ("end y (m, from the right gutter)", 1.0),
     "speed_end_mps": ("speed at the end (m/s)", 1.0),
     "rev_rate_end_rpm": ("rev rate at the end (rpm)", 1.0),
     "time_s": ("time (s)", 1.0),
@@ -344,7 +347,7 @@ def job_axes(spec: Any) -> list[str]:
 def _job_results(state: Any, job_id: str, spec: Any, limit: int) -> list[dict[str, Any]]:
     """The job's runs in job order: index, run ID, swept values (from its ``spec``) and the
     index metrics."""
-    status = state.jobs.get(job_id, with_runs=True)
+    status = all_jobs(state).get(job_id, with_runs=True)
     run_ids = (status.run_ids or [])[:limit]
     points = spec.points(0, len(run_ids))
     rows = state.archive.rows([r for r in run_ids if r is not None])
@@ -371,7 +374,7 @@ def job_results(
     """The job's runs in job order (the first ``limit``): swept values, run ID, outcome and
     metrics in SI units (null for a run not archived yet or failed)."""
     state = _state(request)
-    return _job_results(state, job_id, state.jobs.spec(job_id), limit)
+    return _job_results(state, job_id, all_jobs(state).spec(job_id), limit)
 
 
 @figures.get("/jobs/{job_id}/figure.{fmt}", response_class=Response)
@@ -388,7 +391,7 @@ def job_figure(
     from bowlrec.figures.sweep import sweep_figure
 
     state = _state(request)
-    spec = state.jobs.spec(job_id)
+    spec = all_jobs(state).spec(job_id)
     axes = job_axes(spec)
     if x not in axes:
         raise InputError(f"x: {x[:60]!r} is not swept by this job; swept: {', '.join(axes)}")
@@ -401,7 +404,7 @@ def job_figure(
         if value is not None and r[y] is not None and math.isfinite(r[y]):
             xs.append(float(value))
             ys.append(float(r[y]) * scale)
-    name = state.jobs.get(job_id, with_runs=False).name
+    name = all_jobs(state).get(job_id, with_runs=False).name
     fig = sweep_figure(xs, ys, x_label=x, y_label=label, title=f"job {name}")
     return Response(figure_bytes(fig, fmt), media_type=MEDIA[fmt])
 
@@ -412,7 +415,7 @@ async def job_events(request: Request, job_id: str) -> StreamingResponse:
     ``GET /jobs/{id}`` without run IDs) whenever it changes, ending when the job is done,
     failed, cancelled or interrupted."""
     state = _state(request)
-    first = state.jobs.get(job_id, with_runs=False)  # 404 before the stream starts
+    first = all_jobs(state).get(job_id, with_runs=False)  # 404 before the stream starts
 
     async def stream() -> AsyncIterator[bytes]:
         last = None
@@ -425,7 +428,7 @@ async def job_events(request: Request, job_id: str) -> StreamingResponse:
             if status.status in FINAL_STATES or await request.is_disconnected():
                 return
             await asyncio.sleep(POLL_S)
-            status = state.jobs.get(job_id, with_runs=False)
+            status = all_jobs(state).get(job_id, with_runs=False)
 
     return StreamingResponse(
         stream(),

@@ -24,10 +24,12 @@ from fastapi.responses import HTMLResponse, Response
 from fastapi.templating import Jinja2Templates
 
 from bowlrec.archive.index import cell_text
+from bowlrec.bowling.report import board_count, summary_rows
 from bowlrec.core.codes import OUTCOMES
 from bowlrec.errors import BowlrecError, InputError
 from bowlrec.versions import __version__
 
+from .jobs import all_jobs
 from .seeds import SEEDS
 from .tables import PAGE_SIZES, RANGES, RUN_COLUMNS, RunsQuery, runs_page
 
@@ -54,11 +56,11 @@ PAGE_HEADERS = {
 SUMMARY_FIELDS: tuple[tuple[str, str, float, str], ...] = (
     ("outcome", "outcome", 1.0, ""),
     ("slide (m)", "slide_m", 1.0, ".4f"),
-    ("hook (cm)", "hook_m", 100.0, ".3f"),
-    ("pocket angle (deg)", "pocket_deg", 1.0, ".3f"),
+    ("hook", "hook", 1.0, ""),
+    ("pocket angle", "pocket", 1.0, ""),
     ("time (s)", "time_s", 1.0, ".4f"),
-    ("end x (m)", "x_end_m", 1.0, ".4f"),
-    ("end y (m)", "y_end_m", 1.0, ".4f"),
+    ("end x (m, lane frame)", "x_end_m", 1.0, ".4f"),
+    ("end y (m, lane frame: from the right gutter)", "y_end_m", 1.0, ".4f"),
     ("speed at release (m/s)", "speed_mps", 1.0, ".3f"),
     ("speed at the end (m/s)", "speed_end_mps", 1.0, ".3f"),
     ("rev rate at release (rpm)", "rev_rate_rpm", 1.0, ".1f"),
@@ -160,7 +162,16 @@ def summary_cells(row: dict[str, Any]) -> list[tuple[str, str]]:
     row["ball"] = cell_text(row, "ball")
     row["steps_rhs"] = f"{row.get('n_steps')} / {row.get('n_rhs')}"
     row["created_at"] = cell_text(row, "created_at")
+    sides = dict(summary_rows(_number(row.get("hook_m")), _number(row.get("pocket_deg"))))
+    row["hook"], row["pocket"] = sides.get("hook"), sides.get("pocket angle")
     return [(label, fmt(row.get(key), spec, scale)) for label, key, scale, spec in SUMMARY_FIELDS]
+
+
+def _number(value: Any) -> float | None:
+    """A finite float of an index cell, else None (NaN: no value)."""
+    if isinstance(value, int | float) and not isinstance(value, bool) and value == value:
+        return float(value)
+    return None
 
 
 def report_cells(report: dict[str, Any]) -> list[tuple[str, str]]:
@@ -170,6 +181,7 @@ def report_cells(report: dict[str, Any]) -> list[tuple[str, str]]:
         f"{report['axis_rotation_release_deg']:.1f} / {report['axis_tilt_release_deg']:.1f}"
     )
     shown["breakpoint"] = f"{report['breakpoint_board']:.1f} @ {report['breakpoint_ft']:.1f}"
+    shown["handedness"] = f"{report['handedness']} (boards: {board_count(report['handedness'])})"
     return [(label, fmt(shown.get(key), spec)) for label, key, spec in REPORT_FIELDS]
 
 
@@ -311,7 +323,8 @@ def jobs_page(request: Request, signed_in: SignedIn) -> Response:
         return _render(request, False, "jobs.html")
     state = _state(request)
     seeds = [{"label": s.label, "kind": s.kind, "text": s.text()} for s in SEEDS]
-    return _render(request, True, "jobs.html", title="Jobs", jobs=state.jobs.list(), seeds=seeds)
+    jobs = all_jobs(state).list()
+    return _render(request, True, "jobs.html", title="Jobs", jobs=jobs, seeds=seeds)
 
 
 @pages.get("/ui/jobs/{job_id}", response_class=HTMLResponse)
@@ -323,8 +336,9 @@ def job_page(request: Request, job_id: str, signed_in: SignedIn) -> Response:
     from .api import JOB_METRICS, job_axes
 
     try:
-        status = state.jobs.get(job_id, with_runs=False)
-        axes = job_axes(state.jobs.spec(job_id))
+        jobs = all_jobs(state)
+        status = jobs.get(job_id, with_runs=False)
+        axes = job_axes(jobs.spec(job_id))
     except BowlrecError as err:
         return _error_page(request, err)
     return _render(

@@ -30,16 +30,20 @@ SCENE_EXAMPLE: dict[str, dict[str, Any]] = {
 
 JOB_EXAMPLE: dict[str, dict[str, Any]] = {
     "grid": {
-        "summary": "A speed x rev-rate grid on a physical base scene",
+        "summary": "A speed x side-rotation grid on a physical base scene",
         "value": {
             "format": "bowlrec-job",
-            "name": "speed-rev",
+            "name": "speed-side-spin",
+            "description": (
+                "omega_radps[0] turns the ball about the lane's x axis (side rotation): the "
+                "more of it and the slower the ball, the more it hooks"
+            ),
             "base": {"name": "grid"},
             "sweep": {
                 "kind": "grid",
                 "axes": {
                     "delivery.speed_mps": {"start": 7.0, "stop": 9.0, "num": 5},
-                    "delivery.omega_radps[1]": [20.0, 25.0, 30.0],
+                    "delivery.omega_radps[0]": [-3.0, -6.0, -9.0],
                 },
             },
             "record": "summary",

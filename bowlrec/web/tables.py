@@ -23,7 +23,8 @@ __all__ = [
     "runs_page",
 ]
 
-#: the table's columns: (header, index column, scale to the header's unit, format)
+#: the table's columns: (header, index column, scale to the header's unit, format); hook and
+#: pocket are the archive's signed lane-frame values (+: toward the left gutter)
 RUN_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("created (UTC)", "created_at", 1.0, ""),
     ("name", "name", 1.0, ""),
@@ -34,8 +35,8 @@ RUN_COLUMNS: tuple[tuple[str, str, float, str], ...] = (
     ("speed (m/s)", "speed_mps", 1.0, ".2f"),
     ("revs (rpm)", "rev_rate_rpm", 1.0, ".0f"),
     ("slide (m)", "slide_m", 1.0, ".3f"),
-    ("hook (cm)", "hook_m", 100.0, ".2f"),
-    ("pocket (deg)", "pocket_deg", 1.0, ".2f"),
+    ("hook (cm, +left)", "hook_m", 100.0, ".2f"),
+    ("pocket (deg, +left)", "pocket_deg", 1.0, ".2f"),
     ("record", "record", 1.0, ""),
 )
 #: rows per page offered; the first is the default

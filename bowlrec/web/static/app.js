@@ -105,7 +105,7 @@ async function loadResults(jobId) {
   if (!response.ok) return;
   const rows = await response.json();
   const head = document.createElement("tr");
-  ["#", "run", ...axes, "outcome", "hook (cm)", "pocket (deg)", "slide (m)"].forEach((h) => {
+  ["#", "run", ...axes, "outcome", "hook (cm, +left)", "pocket (deg, +left)", "slide (m)"].forEach((h) => {
     const th = document.createElement("th");
     th.textContent = h;
     head.appendChild(th);
@@ -160,11 +160,13 @@ function initJob() {
     bar.max = s.total;
     bar.value = s.done + s.failed;
     if (s.error) showError(errorEl, s.error);
-    cancel.hidden = final.includes(s.status);
+    if (cancel) cancel.hidden = final.includes(s.status); // none for a command-line job
   };
-  cancel.addEventListener("click", async () => {
-    try { show(await postJson("/jobs/" + jobId + "/cancel")); } catch (e) { showError(errorEl, e.message); }
-  });
+  if (cancel) {
+    cancel.addEventListener("click", async () => {
+      try { show(await postJson("/jobs/" + jobId + "/cancel")); } catch (e) { showError(errorEl, e.message); }
+    });
+  }
   if (final.includes(box.dataset.status)) {
     loadResults(jobId);
     return;
