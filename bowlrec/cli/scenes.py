@@ -244,7 +244,7 @@ def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store:
     for label, text in summary_rows(s.hook_m, s.pocket_deg):  # sides named, not signs
         table.add_row(label, text)
     table.add_row("time", f"{s.time_s:.4f} s")
-    table.add_row("end position (lane frame)", f"x = {s.x_end_m:.4f} m, y = {s.y_end_m:.4f} m")
+    table.add_row("end position", f"x = {s.x_end_m:.4f} m, y = {s.y_end_m:.4f} m (lane frame)")
     table.add_row("end speed", f"{s.speed_end_mps:.3f} m/s")
     table.add_row("end rev rate", f"{s.rev_rate_end_rpm:.1f} rpm")
     table.add_row("events", ", ".join(f"{e.kind}@{e.x_m:.2f}m" for e in traj.events))
