@@ -26,7 +26,7 @@ from .writing import new_builder, register, seal
 if TYPE_CHECKING:
     from .segment_format import RunRecord
 
-__all__ = ["GroupCommitter"]
+__all__ = ["GroupCommitter", "RunCommitter"]
 
 
 class _HasDirectory(Protocol):
@@ -34,6 +34,13 @@ class _HasDirectory(Protocol):
 
     @property
     def directory(self) -> ArchiveDir: ...
+
+
+class RunCommitter(Protocol):
+    """What archives a finished run and answers (added, segment path) once it is sealed and
+    registered: a :class:`GroupCommitter`, or a proxy of one in another process."""
+
+    def add(self, record: RunRecord) -> tuple[bool, Path]: ...
 
 
 @dataclass
