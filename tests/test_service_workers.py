@@ -313,3 +313,40 @@ def test_workers_share_jobs_sessions_and_the_jobs_lock(tmp_path: Path) -> None:
         srv.kill()
     _wait_for(lambda: not any(_alive(pid) for pid in workers), 10, "the orphaned workers")
     assert len(Archive(root, create=False).list_runs()) == 40
+
+
+@pytest.mark.process  # a Unix socket
+def test_the_channel_keeps_507_and_answers_503_when_the_supervisor_is_gone(
+    tmp_path: Path,
+) -> None:
+    """A full disk in the supervisor's committer is 507 in the worker (the message without
+    the server's path); a supervisor that stopped answering is 503 with Retry-After."""
+    from bowlrec.errors import ArchiveWriteError
+    from bowlrec.service.jobs import JobManager
+    from bowlrec.service.shared import WriterClient, WriterService
+
+    root = tmp_path / "archive"
+    archive = Archive(root)
+
+    class FullDisk:
+        def add(self, record: Any) -> tuple[bool, Path]:
+            raise ArchiveWriteError(f"{root}/segments: could not write a segment (disk full)")
+
+    service = WriterService(
+        {"commits": FullDisk(), "jobs": JobManager(archive), "sessions": SessionStore()}
+    )
+    client = WriterClient(service.address, service.authkey)
+    srv = AppServer(root, None, {"shared": client.shared(60.0)})
+    try:
+        with srv.client() as http:
+            r = http.post("/runs", json=summary_scene(1, "full"))
+            assert r.status_code == 507, r.text
+            assert r.json()["detail"] == "ARCHIVE/segments: could not write a segment (disk full)"
+            assert http.get("/jobs/nope").status_code == 404  # the jobs' errors too
+            service.close()
+            r = http.post("/runs", json=summary_scene(2, "gone"))
+            assert r.status_code == 503 and r.headers["retry-after"] == "1", r.text
+            assert "writer process is not answering" in r.json()["detail"]
+    finally:
+        srv.stop()
+        service.close()

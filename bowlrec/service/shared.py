@@ -21,6 +21,7 @@ import os
 import pickle
 import secrets
 import shutil
+import socket
 import tempfile
 import threading
 from dataclasses import dataclass
@@ -145,6 +146,8 @@ class WriterService:
         self.address = os.path.join(self._dir, "writer.sock")
         self._listener = Listener(self.address, family="AF_UNIX", authkey=self.authkey)
         self._closed = threading.Event()
+        self._conns: set[Connection] = set()
+        self._conns_lock = threading.Lock()
         self._thread = threading.Thread(target=self._accept, name="bowlrec-writer", daemon=True)
         self._thread.start()
 
@@ -162,8 +165,10 @@ class WriterService:
             ).start()
 
     def _serve(self, conn: Connection) -> None:
+        with self._conns_lock:
+            self._conns.add(conn)
         with conn:
-            while True:
+            while not self._closed.is_set():
                 try:
                     name, method, args, kwargs = conn.recv()
                 except (EOFError, OSError):  # the worker closed it (or exited)
@@ -180,12 +185,25 @@ class WriterService:
                 try:
                     conn.send(answer)
                 except (OSError, ValueError):  # the worker is gone
-                    return
+                    break
+        with self._conns_lock:
+            self._conns.discard(conn)
 
     def close(self) -> None:
+        """Stop answering: no new connection, and the open ones are shut (a call in
+        progress still gets its answer if it is ready first)."""
         self._closed.set()
         with contextlib.suppress(OSError):
             self._listener.close()
+        with self._conns_lock:
+            conns = list(self._conns)
+        for conn in conns:  # wakes the threads waiting for their worker's next call
+            with contextlib.suppress(OSError, ValueError):
+                sock = socket.socket(fileno=conn.fileno())
+                try:
+                    sock.shutdown(socket.SHUT_RDWR)
+                finally:
+                    sock.detach()
         shutil.rmtree(self._dir, ignore_errors=True)
 
 
