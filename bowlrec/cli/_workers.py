@@ -194,12 +194,13 @@ def run_workers(
 
 def _stop(workers: list[_Worker], signals: list[int]) -> None:
     """SIGTERM every worker and wait for them; a further SIGINT or SIGTERM to the supervisor
-    meanwhile sends another (the worker then cuts off its requests in progress)."""
+    meanwhile sends another (the worker then cuts off its requests in progress). A worker
+    still starting (it has accepted no connection yet) is killed: it holds nothing."""
     seen = len(signals)
     for w in workers:
         if w.process.is_alive() and w.process.pid is not None:
             with contextlib.suppress(ProcessLookupError):
-                os.kill(w.process.pid, signal.SIGTERM)
+                os.kill(w.process.pid, signal.SIGTERM if w.ready.is_set() else signal.SIGKILL)
     while any(w.process.is_alive() for w in workers):
         wait([w.process.sentinel for w in workers if w.process.is_alive()], timeout=POLL_S)
         if len(signals) > seen:  # hurry
