@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import h5py
+import hdf5plugin  # registers the Blosc filter of samples = "lz4" (reading and writing)
 import numpy as np
 from numpy.typing import NDArray
 
@@ -118,8 +119,9 @@ def write_segment(
     """Write a segment file at ``path`` whole or not at all (see :mod:`bowlrec.archive.segment`).
 
     ``samples``: how per-sample datasets (trajectory, torques) are stored, "gzip" (shuffle +
-    gzip, fewer bytes) or "none" (faster to write; benchmarks/results/pipeline.md compares
-    them); readers see no difference, and compaction rewrites segments with gzip."""
+    gzip, fewer bytes), "lz4" (Blosc: byte shuffle + LZ4, through the ``hdf5plugin`` package)
+    or "none" (benchmarks/results/pipeline.md compares them); readers see no difference, and
+    compaction rewrites segments with gzip."""
     if samples not in SAMPLE_FILTERS:
         raise ValueError(f"samples = {samples!r} must be one of {', '.join(SAMPLE_FILTERS)}")
     terms = columns["_terms"]
@@ -179,14 +181,21 @@ _INCOMPRESSIBLE = frozenset(
     }
 )
 #: per-sample storage filters (write_segment's ``samples``)
-SAMPLE_FILTERS = ("gzip", "none")
+SAMPLE_FILTERS = ("gzip", "lz4", "none")
+#: samples = "lz4": Blosc (HDF5 filter 32001) with its byte shuffle and LZ4 at level 5, ~10x
+#: gzip's speed for ~12 % more bytes on recorded samples (benchmarks/results/pipeline.md);
+#: readable by h5py after ``import hdf5plugin``, by h5dump with HDF5_PLUGIN_PATH set to
+#: ``hdf5plugin.PLUGIN_PATH``
+LZ4_FILTERS: dict[str, Any] = {
+    "compression": hdf5plugin.Blosc(cname="lz4", clevel=5, shuffle=hdf5plugin.Blosc.SHUFFLE)
+}
 _SAMPLE_GROUPS = {"trajectory", "torques"}
 
 
 def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -> dict[str, Any]:
     """How a dataset is stored: contiguous when small, else chunked + shuffle + gzip (per-sample
-    datasets with ``samples`` "none" and the measured float columns of :data:`_INCOMPRESSIBLE`:
-    chunked, not compressed)."""
+    datasets with ``samples`` "lz4": chunked + Blosc LZ4; with "none", and the measured float
+    columns of :data:`_INCOMPRESSIBLE`: chunked, not compressed)."""
     if data.ndim == 0 or data.nbytes <= _SMALL_BYTES:
         return {}
     target = (
@@ -196,6 +205,8 @@ def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -
     rows = max(1, min(data.shape[0], target // row_bytes))
     if (samples == "none" and group in _SAMPLE_GROUPS) or (group, name) in _INCOMPRESSIBLE:
         return {"chunks": (rows, *data.shape[1:])}
+    if samples == "lz4" and group in _SAMPLE_GROUPS:
+        return {"chunks": (rows, *data.shape[1:]), **LZ4_FILTERS}
     return {"chunks": (rows, *data.shape[1:]), **GZIP_FILTERS}
 
 
