@@ -30,6 +30,7 @@ from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
+from .derived import derived_samples
 from .pin_records import pin_index_columns
 from .scene_store import scene_text
 from .segment_format import (
@@ -39,6 +40,8 @@ from .segment_format import (
     RUN_STRING_COLUMNS,
     SEGMENT_FORMAT,
     SEGMENT_FORMAT_VERSION,
+    STATE_FIELDS,
+    STATE_FORMAT_VERSION,
     SUMMARY_FLOAT_COLUMNS,
     SUMMARY_INT_COLUMNS,
     TRAJECTORY_FIELDS,
@@ -51,9 +54,12 @@ from .segment_format import (
     row_matrix,
     run_digest,
     sample_columns,
+    sample_parts,
+    stored_samples,
+    version_tuple,
 )
 
-__all__ = ["SegmentFile", "StoredRecord", "format_minor", "write_segment"]
+__all__ = ["SegmentFile", "StoredRecord", "write_segment"]
 
 #: datasets whose values are text or bookkeeping: units "1" and what the values mean
 _MEANINGS = {
@@ -85,6 +91,8 @@ _MEANINGS = {
     "n_rhs": "right-hand-side evaluations (count)",
     "n_events": "events (count)",
     "state_json": "a session's state after the shot, compact JSON (UTF-8 bytes)",
+    "friction_dir": "unit direction (x, y) of the sliding friction force as the kernel applied "
+    "it; with the state it gives the forces, slip, energy and alpha (docs/archive-format.md)",
 }
 
 
@@ -265,7 +273,7 @@ class StoredRecord:
             rtol=c["rtol"],
             wall_time_s=c["wall_time_s"],
             created_at_ns=c["created_at_ns"],
-            trajectory={k: getattr(traj, k) for k in TRAJECTORY_FIELDS} if traj.n_samples else {},
+            trajectory=stored_samples(traj),
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records={g: dict(d) for g, d in self.records.items()},
@@ -300,16 +308,19 @@ class SegmentFile:
         if fmt != SEGMENT_FORMAT:
             self._f.close()
             raise SegmentError(f"{self.path}: not a bowlrec segment (format = {fmt!r})")
-        if version.split(".")[0] != SEGMENT_FORMAT_VERSION.split(".")[0]:
+        major = version_tuple(version)[0]
+        if not 2 <= major <= version_tuple(SEGMENT_FORMAT_VERSION)[0]:
             self._f.close()
             raise SegmentError(
                 f"{self.path}: segment format {version} is not supported by this bowlrec "
-                f"(it reads {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
+                f"(it reads 2.x and {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
             )
         self.segment_id = str(self._f.attrs["segment_id"])
         self.format_version = version
         #: 2.3 and on: base scene and overrides, event codes, a digest per block of runs
-        self.blocks = format_minor(version) >= 3
+        self.blocks = version_tuple(version) >= (2, 3)
+        #: 3.0 and on: samples store the state only, the rest is derived on read
+        self.state = version_tuple(version) >= version_tuple(STATE_FORMAT_VERSION)
         self._dsets: dict[str, Any] = {}
         self._scene_shared: dict[str, Any] | None = None
         self._names: dict[str, list[str] | None] = {}
@@ -346,6 +357,12 @@ class SegmentFile:
     @property
     def n_runs(self) -> int:
         return int(self._f.attrs["n_runs"])
+
+    @property
+    def has_samples(self) -> bool:
+        """Whether any run of the segment has samples."""
+        offsets = self._f["trajectory/offsets"]
+        return bool(offsets.shape[0] and int(offsets[-1]))
 
     def run_ids(self) -> list[str]:
         return [_text(v) for v in self._f["runs/run_id"][()]]
@@ -437,7 +454,7 @@ class SegmentFile:
                 scene=ds(scene_ds)[s0:s1].tobytes(),
                 message=ds("summary/message")[m0:m1].tobytes(),
                 events={k: ds(f"events/{k}")[e0:e1] for k in EVENT_FIELDS},
-                samples={k: ds(f"trajectory/{k}")[t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
+                samples={k: ds(f"trajectory/{k}")[t0:t1] for k in self._sample_fields if k in tg},
                 torques={t: ds(f"torques/{t}")[q0:q1] for t in self._terms} if q1 > q0 else {},
                 records=self._record_rows(row, end),
                 values=ds("scene/override_values")[row:stop]
@@ -510,7 +527,7 @@ class SegmentFile:
             np.frombuffer(d.scene, dtype=np.uint8),
             np.frombuffer(d.message, dtype=np.uint8),
             row_matrix(event_columns(d.events), sizes[2]),
-            row_matrix(sample_columns(d.samples), sizes[3]),
+            None,  # the samples: their parts below
             row_matrix(list(d.torques.values()), sizes[4]),
         ]
         for _, rows in sorted(d.records.items()):
@@ -518,6 +535,7 @@ class SegmentFile:
             sizes.append(size)
             mats.append(row_matrix([rows[k] for k in sorted(rows)], size))
         parts = [(m, _block_offsets(n, size)) for m, size in zip(mats, sizes, strict=True)]
+        parts[3:4] = sample_parts(d.samples, parts[3][1], self.state)
         return block_digest(digest_parts(scene, fixed, parts, 0, n))
 
     def _check_block(self, row: int) -> None:
@@ -625,6 +643,12 @@ class SegmentFile:
         ]
         if not samples:
             samples = _empty_samples()
+        elif self.state:
+            try:
+                samples = derived_samples(samples, scene.decode())
+            except (ValueError, KeyError, TypeError) as err:
+                reason = f"unreadable samples: {err}"
+                raise RunDamagedError(run_id, self.segment_id, reason) from None
         arrays: dict[str, Any] = dict(samples)
         own = {g: d for g, d in records.items() if _has_rows(d)}
         traj = Trajectory(
@@ -728,7 +752,7 @@ class SegmentFile:
                 (f["scene/override_json"][()], f["scene/override_offsets"][()]),
                 (f["summary/message"][()], f["summary/message_offsets"][()]),
                 self._matrix("events", EVENT_FIELDS),
-                self._matrix("trajectory", TRAJECTORY_FIELDS),
+                *self._sample_parts(),
                 self._matrix("torques", self._terms),
                 *(
                     self._matrix(g, sorted(k for k in f[g] if k != "offsets"))
@@ -783,6 +807,19 @@ class SegmentFile:
             out[g] = {k: self._ds(f"{g}/{k}")[a:b] for k in sorted(self._f[g]) if k != "offsets"}
         return out
 
+    @property
+    def _sample_fields(self) -> tuple[str, ...]:
+        """The per-sample datasets this segment's format stores."""
+        return STATE_FIELDS if self.state else TRAJECTORY_FIELDS
+
+    def _sample_parts(self) -> list[tuple[NDArray[Any], NDArray[np.int64]]]:
+        """Every run's samples as the block digests take them (read whole)."""
+        g = self._f["trajectory"]
+        offsets = g["offsets"][()]
+        return sample_parts(
+            {k: g[k][()] for k in self._sample_fields if k in g}, offsets, self.state
+        )
+
     def _matrix(self, group: str, names: Any) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
         g = self._f[group]
         offsets = g["offsets"][()]
@@ -800,12 +837,6 @@ def _block_offsets(n: int, size: int) -> NDArray[np.int64]:
     out = np.full(n + 1, size, dtype=np.int64)
     out[0] = 0
     return out
-
-
-def format_minor(version: str) -> int:
-    """The minor number of a ``major.minor`` version (0 when there is none)."""
-    parts = version.split(".")
-    return int(parts[1]) if len(parts) > 1 and parts[1].isdigit() else 0
 
 
 def _empty_samples() -> dict[str, NDArray[Any]]:
