@@ -255,6 +255,87 @@ def recorded_row(tmp: Path, n: int, samples: str) -> dict[str, Any]:
     return row
 
 
+#: the samples filters the recorded rows compare (the job's ``samples``)
+RECORDED_FILTERS = ("gzip", "lz4", "none")
+
+
+def recorded_rows(tmp: Path, quick: bool) -> list[dict[str, Any]]:
+    return [recorded_row(tmp, 400 if quick else 2000, f) for f in RECORDED_FILTERS]
+
+
+def recorded_costs(n: int = 200) -> dict[str, float]:
+    """CPU ms per recorded run of each stage in one process (``time.process_time``, so a
+    loaded machine inflates it less than wall time), for the first ``samples`` filter of
+    :data:`RECORDED_FILTERS` and each other: what a worker spends on a run of the recorded
+    job, and what the parent's index registration costs."""
+    from bowlrec.archive import Archive, SegmentBuilder
+    from bowlrec.archive.ball_files import ball_sha
+    from bowlrec.archive.segment import RunRecord
+    from bowlrec.archive.segment_file import write_segment
+    from bowlrec.archive.writing import pattern_label
+    from bowlrec.batch import job_context
+    from bowlrec.batch.job import prepare_point
+    from bowlrec.core.solver import kernel_call, solve
+    from bowlrec.provenance import environment
+    from bowlrec.sinks.common import RunData
+
+    job = _job("case16-recorded.json", n)
+    ctx = job_context(job, base_dir=JOBS)
+    points = job.points(0, n)
+    solve(prepare_point(ctx, points[0]).plan)  # warm
+    out: dict[str, float] = {}
+
+    def clock(key: str, t0: float) -> float:
+        now = time.process_time()
+        out[key] = out.get(key, 0.0) + (now - t0) * 1e3 / n
+        return now
+
+    t = time.process_time()
+    preps = [prepare_point(ctx, p) for p in points]
+    t = clock("prepare", t)
+    for p in preps:
+        fn, args = kernel_call(p.plan)
+        fn(*args)
+    t = clock("kernel", t)
+    trajs = [solve(p.plan) for p in preps]
+    t = clock("solve", t)
+    out["derive"] = out.pop("solve") - out["kernel"]
+    t = time.process_time()
+    records = [
+        RunRecord.from_run(
+            RunData(p.scene, p.plan, tr, p.run_id),
+            wall_time_s=0.0,
+            ball_ref="",
+            solver="integrator",
+            ball_sha=ball_sha(p.scene.ball),
+            pattern=pattern_label(p.scene),
+        )
+        for p, tr in zip(preps, trajs, strict=True)
+    ]
+    t = clock("record", t)
+    builder = SegmentBuilder(environment())
+    for r in records:
+        builder.append(r)
+    t = time.process_time()
+    columns = builder.columns()
+    t = clock("columns", t)
+    with tempfile.TemporaryDirectory(dir=ROOT) as tmp_name:
+        tmp = Path(tmp_name)
+        for f in RECORDED_FILTERS:
+            path = tmp / f"{f}.h5"
+            t = time.process_time()
+            write_segment(path, "x", columns, environment(), durable=False, samples=f)
+            t = clock(f"write_{f}", t)
+            out[f"bytes_{f}"] = path.stat().st_size / n
+        archive = Archive(tmp / "index")
+        info = archive.seal(builder)
+        t = time.process_time()
+        archive.register([info])
+        clock("index", t)
+        archive.close()
+    return out
+
+
 def service_rows(tmp: Path, n_job: int, clients: int, per_client: int) -> dict[str, Any]:
     import httpx
 
@@ -432,7 +513,7 @@ def measure(quick: bool) -> dict[str, Any]:
         bowler_kernel = kernel_rate(_packed(bowler_job, min(n_bowler, 4000)))
         bowler = batch_row("bowler LHS, batch --archive", bowler_job, Archive(tmp / "b"), n_bowler)
         bowler["kernel_per_s"] = bowler_kernel
-        recorded = [recorded_row(tmp, 400 if quick else 2000, f) for f in ("gzip", "none")]
+        recorded = recorded_rows(tmp, quick)
         service = service_rows(tmp, n_service, clients=16, per_client=20 if quick else 40)
         lazy = lazy_start(300_000 if quick else 1_000_000)
     batch_rate = rows[0]["steady_per_s"]
@@ -653,9 +734,16 @@ def markdown(d: dict[str, Any]) -> str:
         "## Recorded trajectories",
         "",
         f"`benchmarks/jobs/case16-recorded.json` (samples every 1 ms, "
-        f"~{rec[0]['samples_per_run']:.0f} samples per run, every sample quantity stored), "
-        "2 workers; the disk rate is a sequential write of 128 MB fsynced, measured on the "
-        "same disk just before each row.",
+        f"~{rec[0]['samples_per_run']:.0f} samples per run; segment format 3.0: each "
+        "sample's state stored, forces, slip, energy and alpha derived on read), 2 workers; "
+        "the disk rate is a sequential write of 128 MB fsynced, measured on the same disk "
+        "just before each row. Samples filters: gzip = HDF5's shuffle + gzip level 4, lz4 = "
+        "Blosc's byte shuffle + LZ4 level 5 (`hdf5plugin`), none = stored as they are."
+        + (
+            f" Load average {_load(d['recorded_machine'])} (a shared machine)."
+            if "recorded_machine" in d
+            else ""
+        ),
         "",
         "| samples filter (job `samples`) | runs | steady runs/s | whole job /s | bytes/run "
         "| disk MB/s | disk-bound runs/s | % of disk-bound |",
@@ -668,6 +756,28 @@ def markdown(d: dict[str, Any]) -> str:
             f"| {_f(r['disk_runs_per_s'])} | {_f(r['pct_of_disk'], 1)} |"
         )
     lines += [""]
+    c = d.get("recorded_costs_ms")
+    if c:
+        stages = [
+            ("prepare (validate the scene, resolve, run ID)", c["prepare"]),
+            ("kernel with dense output at 1 ms", c["kernel"]),
+            ("solve beyond the kernel (derived quantities, arrays, summary)", c["derive"]),
+            ("segment record of the run (scene JSON, state arrays)", c["record"]),
+            ("segment columns (concatenation, digests)", c["columns"]),
+            *((f"HDF5 write, samples {f} (no fsync)", c[f"write_{f}"]) for f in RECORDED_FILTERS),
+            ("index registration (parent)", c["index"]),
+        ]
+        lines += [
+            "CPU time per recorded run in one process (`time.process_time`, 200 runs), stage "
+            "by stage; bytes per run of the segment by filter: "
+            + ", ".join(f"{f} {_f(c[f'bytes_{f}'])}" for f in RECORDED_FILTERS)
+            + ".",
+            "",
+            "| stage | CPU ms per run |",
+            "|---|---:|",
+            *(f"| {name} | {ms:.2f} |" for name, ms in stages),
+            "",
+        ]
     s = d["service"]
     lines += [
         "## Service",
@@ -701,9 +811,32 @@ def markdown(d: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+def measure_recorded(quick: bool, previous: dict[str, Any]) -> dict[str, Any]:
+    """``previous`` (the results of a whole run) with the recorded rows and their costs
+    measured again, the targets and headline recomputed."""
+    data = dict(previous)
+    data["recorded_machine"] = {"loadavg_before": os.getloadavg()}
+    with tempfile.TemporaryDirectory(dir=ROOT) as tmp_name:
+        data["recorded"] = recorded_rows(Path(tmp_name), quick)
+    data["recorded_costs_ms"] = recorded_costs()
+    data["recorded_machine"]["loadavg_after"] = os.getloadavg()
+    data["targets"] = targets(data)
+    data["headline"] = headline(data)
+    return data
+
+
+def _load(m: dict[str, Any]) -> str:
+    return f"{m['loadavg_before'][0]:.2f} before, {m['loadavg_after'][0]:.2f} after"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="20,000 runs instead of 200,000")
+    parser.add_argument(
+        "--only",
+        choices=["recorded"],
+        help="measure only these rows; the others are kept from OUT/pipeline.json",
+    )
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     parser.add_argument(
         "--update-docs",
@@ -711,7 +844,12 @@ def main() -> None:
         help="also write the targets table into docs/pipeline.md and the headline into README.md",
     )
     args = parser.parse_args()
-    data = measure(args.quick)
+    if args.only == "recorded":
+        previous = json.loads((args.out / "pipeline.json").read_text())
+        data = measure_recorded(args.quick, previous)
+    else:
+        data = measure(args.quick)
+        data["recorded_costs_ms"] = recorded_costs()
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "pipeline.json").write_text(json.dumps(data, indent=2) + "\n")
     (args.out / "pipeline.md").write_text(markdown(data))

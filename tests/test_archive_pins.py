@@ -167,7 +167,7 @@ def test_pins_round_trip_every_value_and_array(tmp_path: Path, plain_run: RunDat
     for i, pins in enumerate(outcomes):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
-        assert stored.attrs["format_version"] == "2.3"
+        assert stored.attrs["format_version"] == "3.0"  # the runs have samples
         engine = stored.attrs.get("pin_engine_version")
         assert engine == (None if pins.action is None else "mujoco 3.17.0")
     with SegmentFile(archive.locate(_rid(1))[2]) as seg:  # type: ignore[index]
@@ -203,7 +203,7 @@ def test_runs_with_and_without_pins_share_a_segment_and_compaction_carries_them(
     for i, pins in enumerate([*outcomes, None]):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
-        assert stored.attrs["format_version"] == "2.3"
+        assert stored.attrs["format_version"] == "3.0"
     assert archive.repair()["damaged_runs"] == []
 
 
@@ -234,11 +234,12 @@ def test_a_summary_only_run_keeps_where_the_pins_came_to_rest(
     assert standing_offsets_m(back, 18.288, 1.0541) == standing_offsets_m(pins, 18.288, 1.0541)
 
 
-def test_a_run_without_pins_is_stored_as_before_but_for_the_2_3_changes(tmp_path: Path) -> None:
-    """The committed 2.0 fixture's runs, written again by this code (format 2.3): every dataset
-    of the fixture that 2.3 keeps is equal, units included; the ones 2.3 stores otherwise (the
-    scenes, the per-run digests, event kinds and phases as text) read back equal; with a
-    session's record groups, 2.3 too."""
+def test_a_run_without_pins_is_stored_as_before_but_for_the_later_changes(tmp_path: Path) -> None:
+    """The committed 2.0 fixture's runs, written again by this code (format 3.0: they have
+    samples): every dataset of the fixture that 3.0 keeps is equal, units included; the ones
+    2.3 stores otherwise (the scenes, the per-run digests, event kinds and phases as text) read
+    back equal, and the ones 3.0 derives on read are not stored; with a session's record
+    groups, 3.0 too."""
     archive = Archive(tmp_path / "a")
     original = next((FIXTURES / "archive-v2" / "segments").glob("*.h5"))
     with SegmentFile(original) as seg:
@@ -263,9 +264,13 @@ def test_a_run_without_pins_is_stored_as_before_but_for_the_2_3_changes(tmp_path
         return out
 
     new, old = datasets(info.path), datasets(original)
-    assert (new.pop("_version"), old.pop("_version")) == ("2.3", "2.0")
+    assert (new.pop("_version"), old.pop("_version")) == ("3.0", "2.0")
     stored_otherwise = {"runs/digest", "runs/scene_json", "runs/scene_json_offsets"}
     stored_otherwise |= {"events/kind", "events/phase"}
+    stored_otherwise |= {
+        f"trajectory/{k}"
+        for k in ("alpha_radps2", "energy_J", "friction_force_N", "normal_force_N", "slip_mps")
+    }
     assert old.keys() - new.keys() == stored_otherwise - {"events/kind", "events/phase"}
     assert new.keys() - old.keys() == {
         "scene/base_json",
@@ -274,6 +279,7 @@ def test_a_run_without_pins_is_stored_as_before_but_for_the_2_3_changes(tmp_path
         "scene/override_json",
         "scene/override_offsets",
         "digest/blocks",
+        "trajectory/friction_dir",
     }
     for name in old.keys() - stored_otherwise:
         (a, a_attrs), (b, b_attrs) = new[name], old[name]
@@ -289,7 +295,7 @@ def test_a_run_without_pins_is_stored_as_before_but_for_the_2_3_changes(tmp_path
     builder = archive.builder()
     builder.append(with_session)
     with SegmentFile(archive.seal(builder).path) as seg:
-        assert seg.provenance["format_version"] == "2.3"
+        assert seg.provenance["format_version"] == "3.0"
 
 
 @pytest.mark.parametrize("group", [g for g in PIN_GROUPS])
@@ -492,8 +498,9 @@ def test_committed_v2_3_fixture_archive_reads(tmp_path: Path) -> None:
     """tests/fixtures/archive-v2.3 (tests/fixtures/make_fixture_v23.py): a batch sweep's
     segment (the swept values as override columns, one digest block) and a builder's segment
     (JSON overrides, a recorded run: a digest per run) read back as written: the scene text,
-    summary, events and samples; a migration leaves them alone. If this fails, the on-disk
-    format changed: see test_committed_v2_fixture_archive_still_reads in test_archive.py."""
+    summary, events and samples; a migration rewrites the segment with samples as 3.0 and
+    leaves the other alone. If this fails, the on-disk format changed: see
+    test_committed_v2_fixture_archive_still_reads in test_archive.py."""
     from bowlrec.archive.migrate import migrate
 
     expected = json.loads((FIXTURES / "archive-v2.3.json").read_text())
@@ -516,7 +523,7 @@ def test_committed_v2_3_fixture_archive_reads(tmp_path: Path) -> None:
             blocks.add(seg.block_runs)
     assert blocks == {1, 256}
     report = migrate(copy)
-    assert (report["segments_rewritten"], report["runs"]) == (0, 9)
+    assert (report["segments_rewritten"], report["runs"]) == (1, 9)
 
 
 def _names(rows: list[dict[str, Any]]) -> list[str]:
@@ -528,7 +535,9 @@ def test_the_chain_of_formats_from_1_0_reads_into_one_archive(
 ) -> None:
     """Format 1.0 migrated, then 2.0, 2.1, 2.2 and 2.3 segments (the committed fixtures) beside
     it and a run with pins written now: every run indexed and read back, and the migration of
-    the 2.x archive rewrites every segment of 2.0-2.2 as 2.3: each run reads back the same."""
+    the 2.x archive rewrites every segment of 2.0-2.2, and the 2.3 one with samples, as 3.0
+    (with samples) or 2.3: each run reads back the same (tests/test_archive_state.py compares
+    every sample quantity)."""
     from bowlrec.archive.migrate import migrate
 
     root = shutil.copytree(FIXTURES / "archive-v1", tmp_path / "archive")
@@ -543,15 +552,18 @@ def test_the_chain_of_formats_from_1_0_reads_into_one_archive(
     assert len(rows) == 2 + 2 + 2 + 3 + 9 + 1
     before = {r["run_id"]: archive.load(r["run_id"]) for r in rows}
     versions = sorted(s.attrs["format_version"] for s in before.values())
-    assert versions == ["2.0"] * 2 + ["2.1"] * 2 + ["2.2"] * 3 + ["2.3"] * 12
+    assert versions[:7] == ["2.0"] * 2 + ["2.1"] * 2 + ["2.2"] * 3
+    assert set(versions[7:]) == {"2.3", "3.0"}  # 1.0's runs and the new one have samples
     assert archive.repair()["damaged_runs"] == []
     archive.close()
     report = migrate(root)
-    assert (report["segments_rewritten"], report["segments_left"], report["runs"]) == (3, 0, 19)
+    assert (report["segments_rewritten"], report["segments_left"], report["runs"]) == (4, 0, 19)
     archive = Archive(root, create=False)
     for rid, old in before.items():
         new = archive.load(rid)
-        assert new.attrs["format_version"] == "2.3"
+        assert new.attrs["format_version"] in (
+            ("3.0",) if old.trajectory.n_samples else ("2.3", "3.0")
+        )
         _assert_same_pins(new.trajectory.pins, old.trajectory.pins)
         assert new.trajectory.summary == old.trajectory.summary
         assert new.trajectory.events == old.trajectory.events

@@ -93,7 +93,7 @@ def test_runs_list_filters_show_export_and_rm(tmp_path: Path) -> None:
     assert shown["index"]["run_id"] == ids[7.0]
     assert shown["scene"]["delivery"]["speed_mps"] == 7.0
     assert [e["kind"] for e in shown["events"]][-1] == "pins"
-    assert shown["provenance"]["format_version"] == "2.3"
+    assert shown["provenance"]["format_version"] == "3.0"
     assert shown["provenance"]["bowler_layer_version"] == "3" and shown["warnings"] == []
     h5 = tmp_path / "out.h5"
     _ok("runs", "export", ids[7.0], "-a", arch, "--out", str(h5))

@@ -678,6 +678,18 @@ def _rows(group: Any, names: list[str], a: int, b: int) -> bytes:
     return b"".join(b"".join(c[i] for c in cols) for i in range(b - a))
 
 
+def _span(f: h5py.File, group: str, a: int, b: int) -> tuple[int, int]:
+    """Rows of runs ``a:b`` in ``group`` (its offsets)."""
+    lo, hi = (int(f[group]["offsets"][j]) for j in (a, b))
+    return lo, hi
+
+
+def samples_2_3() -> list[str]:
+    """The sample datasets of a 2.3 segment, in the digest's order."""
+    names = "alpha_radps2 energy_J friction_force_N mu normal_force_N omega_radps phase "
+    return (names + "position_m quaternion_wxyz slip_mps t_s velocity_mps").split()
+
+
 def docs_digest(f: h5py.File, k: int) -> int:
     """Block ``k``'s digest, following the text of docs/archive-format.md ("Digests")."""
     n, size = int(f.attrs["n_runs"]), int(f["digest"].attrs["block_runs"])
@@ -711,26 +723,23 @@ def docs_digest(f: h5py.File, k: int) -> int:
     ):
         lo, hi = (int(f[offsets][j]) for j in (a, b))
         part(f[data][lo:hi].tobytes())
-    # 7: events, 8: samples, 9: torque rows
+    # 7: events; 8: samples (3.0: one part per dataset, each the block's rows as stored; 2.3:
+    # the datasets side by side per sample); 9: torque rows
+    state = str(f.attrs["format_version"]) == "3.0"
+    samples = "friction_dir mu omega_radps phase position_m quaternion_wxyz t_s velocity_mps"
+    samples = samples.split()
+    part(
+        _rows(f["events"], ["kind", "mu", "phase", "t_s", "x_m", "y_m"], *_span(f, "events", a, b))
+    )
+    if state:
+        lo, hi = _span(f, "trajectory", a, b)
+        for name in samples:
+            part(np.ascontiguousarray(f["trajectory"][name][lo:hi]).tobytes())
+    else:
+        lo, hi = _span(f, "trajectory", a, b)
+        present = [name for name in samples_2_3() if name in f["trajectory"]]
+        part(_rows(f["trajectory"], present, lo, hi) if present else b"")
     groups = [
-        ("events", ["kind", "mu", "phase", "t_s", "x_m", "y_m"]),
-        (
-            "trajectory",
-            [
-                "alpha_radps2",
-                "energy_J",
-                "friction_force_N",
-                "mu",
-                "normal_force_N",
-                "omega_radps",
-                "phase",
-                "position_m",
-                "quaternion_wxyz",
-                "slip_mps",
-                "t_s",
-                "velocity_mps",
-            ],
-        ),
         (
             "torques",
             [t.decode() if isinstance(t, bytes) else str(t) for t in f["torques"].attrs["order"]],

@@ -56,13 +56,12 @@ def _candidates(con: Any, target_runs: int) -> list[tuple[str, str, str]]:
 def _older(
     d: ArchiveDir, con: Any, chosen: list[tuple[str, str, str]]
 ) -> list[tuple[str, str, str]]:
-    """``chosen`` and every other registered segment of a format before
-    :data:`~bowlrec.archive.segment_format.SEGMENT_FORMAT_VERSION` (an unreadable one is left
-    for ``runs repair``)."""
-    from .segment_file import SegmentFile, format_minor
-    from .segment_format import SEGMENT_FORMAT_VERSION
+    """``chosen`` and every other registered segment of a format before the one this code
+    writes for it (:data:`~bowlrec.archive.segment_format.SEGMENT_FORMAT_VERSION` for a segment
+    holding samples, 2.3 for one without; an unreadable one is left for ``runs repair``)."""
+    from .segment_file import SegmentFile
+    from .segment_format import SCENE_FORMAT_VERSION, SEGMENT_FORMAT_VERSION, version_tuple
 
-    current = format_minor(SEGMENT_FORMAT_VERSION)
     have = {c[0] for c in chosen}
     out = list(chosen)
     for seg_id, rel, prov in con.execute(
@@ -72,7 +71,8 @@ def _older(
             continue
         try:
             with SegmentFile(d.root / rel) as seg:
-                older = format_minor(seg.format_version) < current
+                current = SEGMENT_FORMAT_VERSION if seg.has_samples else SCENE_FORMAT_VERSION
+                older = version_tuple(seg.format_version) < version_tuple(current)
         except (SegmentError, OSError):
             continue
         if older:

@@ -1,5 +1,5 @@
 """Segments built and sealed: many runs in one sealed HDF5 file (format ``bowlrec-segment``
-2.3).
+3.0 with samples, 2.3 without).
 
 A segment holds the runs of one writer as columns: one dataset per quantity with the values of
 all its runs concatenated (``offsets`` datasets give each run's slice), the summary metrics and
@@ -41,6 +41,7 @@ from .segment_format import (
     RUN_STRING_COLUMNS,
     SEGMENT_FORMAT,
     SEGMENT_FORMAT_VERSION,
+    STATE_FIELDS,
     SUMMARY_FLOAT_COLUMNS,
     SUMMARY_INT_COLUMNS,
     TRAJECTORY_FIELDS,
@@ -57,6 +58,7 @@ from .segment_format import (
     row_matrix,
     run_digest,
     sample_columns,
+    sample_parts,
 )
 
 #: event kind and phase codes (2.3): code i is names[i] (stored as each dataset's ``names_json``)
@@ -218,7 +220,7 @@ class SegmentBuilder:
         events = self._events()
         trajectory, traj_offsets = self._samples()
         torques, torque_offsets, terms = self._torques()
-        smp_m = row_matrix(sample_columns(trajectory), int(traj_offsets[-1]))
+        smp_parts = sample_parts(trajectory, traj_offsets, bool(traj_offsets[-1]))
         tq_m = row_matrix([torques[t] for t in terms], int(torque_offsets[-1]))
         trajectory["offsets"] = traj_offsets
         torques["offsets"] = torque_offsets
@@ -228,7 +230,7 @@ class SegmentBuilder:
             scene_columns([r.scene_json for r in recs]),
             (message_bytes, message_offsets),
             events,
-            (trajectory, smp_m),
+            (trajectory, smp_parts),
             (torques, tq_m),
             terms,
             record_groups(recs),
@@ -259,7 +261,7 @@ class SegmentBuilder:
         recorded = [r.trajectory for r in self.records if r.trajectory]
         out: dict[str, NDArray[Any]] = {}
         if recorded:
-            for name in TRAJECTORY_FIELDS:
+            for name in STATE_FIELDS:
                 out[name] = np.concatenate([t[name] for t in recorded])
         return out, offsets
 
@@ -417,7 +419,7 @@ class SummaryRuns:
             scene,
             (message_bytes, message_offsets),
             events,
-            ({"offsets": np.zeros(n + 1, dtype=np.int64)}, no_samples),
+            ({"offsets": np.zeros(n + 1, dtype=np.int64)}, [no_samples]),
             ({"offsets": np.zeros(n + 1, dtype=np.int64)}, no_samples),
             [],
         )
@@ -461,7 +463,7 @@ def _with_digests(
     scene: dict[str, NDArray[Any]],
     messages: tuple[NDArray[np.uint8], NDArray[np.int64]],
     events: dict[str, Any],
-    samples: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
+    samples: tuple[dict[str, NDArray[Any]], Sequence[Any]],
     torques: tuple[dict[str, NDArray[Any]], NDArray[np.uint8]],
     terms: Sequence[str],
     records: dict[str, tuple[dict[str, Any], Any]] | None = None,
@@ -469,8 +471,10 @@ def _with_digests(
     """A segment's datasets by group, with one digest per block of runs (see
     :func:`digest_parts`).
 
-    ``samples`` and ``torques``: each group's datasets (with ``offsets``) and its row matrix
-    (:func:`row_matrix`; any empty matrix when no run has rows); ``records``: the per-run record
+    ``samples``: the group's datasets (with ``offsets``) and its digest parts
+    (:func:`sample_parts`, or their matrices alone; an empty matrix when no run has samples);
+    ``torques``: the group's datasets and its row matrix (:func:`row_matrix`; any empty matrix
+    when no run has rows); ``records``: the per-run record
     groups (:func:`record_groups`), which join each digest after the torques."""
     records = records or {}
     n = int(runs["run_id"].shape[0])
@@ -484,7 +488,7 @@ def _with_digests(
         (scene["override_json"], scene["override_offsets"]),
         (message_bytes, message_offsets),
         (ev_m, ev_off),
-        (samples[1], smp_off),
+        *((p[0] if isinstance(p, tuple) else p, smp_off) for p in samples[1]),
         (torques[1], tq_off),
         *((m, d["offsets"]) for d, m in records.values()),
     ]

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import h5py
+import hdf5plugin  # registers the Blosc filter of samples = "lz4" (reading and writing)
 import numpy as np
 from numpy.typing import NDArray
 
@@ -29,6 +30,7 @@ from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
+from .derived import derived_samples
 from .pin_records import pin_index_columns
 from .scene_store import scene_text
 from .segment_format import (
@@ -38,6 +40,8 @@ from .segment_format import (
     RUN_STRING_COLUMNS,
     SEGMENT_FORMAT,
     SEGMENT_FORMAT_VERSION,
+    STATE_FIELDS,
+    STATE_FORMAT_VERSION,
     SUMMARY_FLOAT_COLUMNS,
     SUMMARY_INT_COLUMNS,
     TRAJECTORY_FIELDS,
@@ -50,9 +54,12 @@ from .segment_format import (
     row_matrix,
     run_digest,
     sample_columns,
+    sample_parts,
+    stored_samples,
+    version_tuple,
 )
 
-__all__ = ["SegmentFile", "StoredRecord", "format_minor", "write_segment"]
+__all__ = ["SegmentFile", "StoredRecord", "write_segment"]
 
 #: datasets whose values are text or bookkeeping: units "1" and what the values mean
 _MEANINGS = {
@@ -86,6 +93,8 @@ _MEANINGS = {
     "n_rhs": "right-hand-side evaluations (count)",
     "n_events": "events (count)",
     "state_json": "a session's state after the shot, compact JSON (UTF-8 bytes)",
+    "friction_dir": "unit direction (x, y) of the sliding friction force as the kernel applied "
+    "it; with the state it gives the forces, slip, energy and alpha (docs/archive-format.md)",
 }
 
 
@@ -120,8 +129,9 @@ def write_segment(
     """Write a segment file at ``path`` whole or not at all (see :mod:`bowlrec.archive.segment`).
 
     ``samples``: how per-sample datasets (trajectory, torques) are stored, "gzip" (shuffle +
-    gzip, fewer bytes) or "none" (faster to write; benchmarks/results/pipeline.md compares
-    them); readers see no difference, and compaction rewrites segments with gzip."""
+    gzip, fewer bytes), "lz4" (Blosc: byte shuffle + LZ4, through the ``hdf5plugin`` package)
+    or "none" (benchmarks/results/pipeline.md compares them); readers see no difference, and
+    compaction rewrites segments with gzip."""
     if samples not in SAMPLE_FILTERS:
         raise ValueError(f"samples = {samples!r} must be one of {', '.join(SAMPLE_FILTERS)}")
     terms = columns["_terms"]
@@ -181,14 +191,21 @@ _INCOMPRESSIBLE = frozenset(
     }
 )
 #: per-sample storage filters (write_segment's ``samples``)
-SAMPLE_FILTERS = ("gzip", "none")
+SAMPLE_FILTERS = ("gzip", "lz4", "none")
+#: samples = "lz4": Blosc (HDF5 filter 32001) with its byte shuffle and LZ4 at level 5, ~10x
+#: gzip's speed for ~12 % more bytes on recorded samples (benchmarks/results/pipeline.md);
+#: readable by h5py after ``import hdf5plugin``, by h5dump with HDF5_PLUGIN_PATH set to
+#: ``hdf5plugin.PLUGIN_PATH``
+LZ4_FILTERS: dict[str, Any] = {
+    "compression": hdf5plugin.Blosc(cname="lz4", clevel=5, shuffle=hdf5plugin.Blosc.SHUFFLE)
+}
 _SAMPLE_GROUPS = {"trajectory", "torques"}
 
 
 def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -> dict[str, Any]:
     """How a dataset is stored: contiguous when small, else chunked + shuffle + gzip (per-sample
-    datasets with ``samples`` "none" and the measured float columns of :data:`_INCOMPRESSIBLE`:
-    chunked, not compressed)."""
+    datasets with ``samples`` "lz4": chunked + Blosc LZ4; with "none", and the measured float
+    columns of :data:`_INCOMPRESSIBLE`: chunked, not compressed)."""
     if data.ndim == 0 or data.nbytes <= _SMALL_BYTES:
         return {}
     target = (
@@ -198,6 +215,8 @@ def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -
     rows = max(1, min(data.shape[0], target // row_bytes))
     if (samples == "none" and group in _SAMPLE_GROUPS) or (group, name) in _INCOMPRESSIBLE:
         return {"chunks": (rows, *data.shape[1:])}
+    if samples == "lz4" and group in _SAMPLE_GROUPS:
+        return {"chunks": (rows, *data.shape[1:]), **LZ4_FILTERS}
     return {"chunks": (rows, *data.shape[1:]), **GZIP_FILTERS}
 
 
@@ -207,7 +226,8 @@ class _RowBytes:
 
     run_id: str
     fixed: dict[str, dict[str, NDArray[Any]]]
-    #: the scene as stored: the whole scene (2.0-2.2) or the run's JSON overrides (2.3)
+    #: the scene as stored: the whole scene (2.0-2.2), or for 2.3 on the run's whole scene when it
+    #: differs from the base (empty: the base with its column values)
     scene: bytes
     message: bytes
     events: dict[str, NDArray[Any]]
@@ -256,7 +276,7 @@ class StoredRecord:
             rtol=c["rtol"],
             wall_time_s=c["wall_time_s"],
             created_at_ns=c["created_at_ns"],
-            trajectory={k: getattr(traj, k) for k in TRAJECTORY_FIELDS} if traj.n_samples else {},
+            trajectory=stored_samples(traj),
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records={g: dict(d) for g, d in self.records.items()},
@@ -291,16 +311,19 @@ class SegmentFile:
         if fmt != SEGMENT_FORMAT:
             self._f.close()
             raise SegmentError(f"{self.path}: not a bowlrec segment (format = {fmt!r})")
-        if version.split(".")[0] != SEGMENT_FORMAT_VERSION.split(".")[0]:
+        major = version_tuple(version)[0]
+        if not 2 <= major <= version_tuple(SEGMENT_FORMAT_VERSION)[0]:
             self._f.close()
             raise SegmentError(
                 f"{self.path}: segment format {version} is not supported by this bowlrec "
-                f"(it reads {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
+                f"(it reads 2.x and {SEGMENT_FORMAT_VERSION.split('.')[0]}.x)"
             )
         self.segment_id = str(self._f.attrs["segment_id"])
         self.format_version = version
         #: 2.3 and on: base scene and overrides, event codes, a digest per block of runs
-        self.blocks = format_minor(version) >= 3
+        self.blocks = version_tuple(version) >= (2, 3)
+        #: 3.0 and on: samples store the state only, the rest is derived on read
+        self.state = version_tuple(version) >= version_tuple(STATE_FORMAT_VERSION)
         self._dsets: dict[str, Any] = {}
         self._scene_shared: dict[str, Any] | None = None
         self._names: dict[str, list[str] | None] = {}
@@ -337,6 +360,12 @@ class SegmentFile:
     @property
     def n_runs(self) -> int:
         return int(self._f.attrs["n_runs"])
+
+    @property
+    def has_samples(self) -> bool:
+        """Whether any run of the segment has samples."""
+        offsets = self._f["trajectory/offsets"]
+        return bool(offsets.shape[0] and int(offsets[-1]))
 
     def run_ids(self) -> list[str]:
         return [_text(v) for v in self._f["runs/run_id"][()]]
@@ -428,7 +457,7 @@ class SegmentFile:
                 scene=ds(scene_ds)[s0:s1].tobytes(),
                 message=ds("summary/message")[m0:m1].tobytes(),
                 events={k: ds(f"events/{k}")[e0:e1] for k in EVENT_FIELDS},
-                samples={k: ds(f"trajectory/{k}")[t0:t1] for k in TRAJECTORY_FIELDS if k in tg},
+                samples={k: ds(f"trajectory/{k}")[t0:t1] for k in self._sample_fields if k in tg},
                 torques={t: ds(f"torques/{t}")[q0:q1] for t in self._terms} if q1 > q0 else {},
                 records=self._record_rows(row, end),
                 values=ds("scene/override_values")[row:stop]
@@ -501,7 +530,7 @@ class SegmentFile:
             np.frombuffer(d.scene, dtype=np.uint8),
             np.frombuffer(d.message, dtype=np.uint8),
             row_matrix(event_columns(d.events), sizes[2]),
-            row_matrix(sample_columns(d.samples), sizes[3]),
+            None,  # the samples: their parts below
             row_matrix(list(d.torques.values()), sizes[4]),
         ]
         for _, rows in sorted(d.records.items()):
@@ -509,6 +538,7 @@ class SegmentFile:
             sizes.append(size)
             mats.append(row_matrix([rows[k] for k in sorted(rows)], size))
         parts = [(m, _block_offsets(n, size)) for m, size in zip(mats, sizes, strict=True)]
+        parts[3:4] = sample_parts(d.samples, parts[3][1], self.state)
         return block_digest(digest_parts(scene, fixed, parts, 0, n))
 
     def _check_block(self, row: int) -> None:
@@ -616,6 +646,12 @@ class SegmentFile:
         ]
         if not samples:
             samples = _empty_samples()
+        elif self.state:
+            try:
+                samples = derived_samples(samples, scene.decode())
+            except (ValueError, KeyError, TypeError) as err:
+                reason = f"unreadable samples: {err}"
+                raise RunDamagedError(run_id, self.segment_id, reason) from None
         arrays: dict[str, Any] = dict(samples)
         own = {g: d for g, d in records.items() if _has_rows(d)}
         traj = Trajectory(
@@ -719,7 +755,7 @@ class SegmentFile:
                 (f["scene/override_json"][()], f["scene/override_offsets"][()]),
                 (f["summary/message"][()], f["summary/message_offsets"][()]),
                 self._matrix("events", EVENT_FIELDS),
-                self._matrix("trajectory", TRAJECTORY_FIELDS),
+                *self._sample_parts(),
                 self._matrix("torques", self._terms),
                 *(
                     self._matrix(g, sorted(k for k in f[g] if k != "offsets"))
@@ -774,6 +810,19 @@ class SegmentFile:
             out[g] = {k: self._ds(f"{g}/{k}")[a:b] for k in sorted(self._f[g]) if k != "offsets"}
         return out
 
+    @property
+    def _sample_fields(self) -> tuple[str, ...]:
+        """The per-sample datasets this segment's format stores."""
+        return STATE_FIELDS if self.state else TRAJECTORY_FIELDS
+
+    def _sample_parts(self) -> list[tuple[NDArray[Any], NDArray[np.int64]]]:
+        """Every run's samples as the block digests take them (read whole)."""
+        g = self._f["trajectory"]
+        offsets = g["offsets"][()]
+        return sample_parts(
+            {k: g[k][()] for k in self._sample_fields if k in g}, offsets, self.state
+        )
+
     def _matrix(self, group: str, names: Any) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
         g = self._f[group]
         offsets = g["offsets"][()]
@@ -791,12 +840,6 @@ def _block_offsets(n: int, size: int) -> NDArray[np.int64]:
     out = np.full(n + 1, size, dtype=np.int64)
     out[0] = 0
     return out
-
-
-def format_minor(version: str) -> int:
-    """The minor number of a ``major.minor`` version (0 when there is none)."""
-    parts = version.split(".")
-    return int(parts[1]) if len(parts) > 1 and parts[1].isdigit() else 0
 
 
 def _empty_samples() -> dict[str, NDArray[Any]]:

@@ -26,6 +26,7 @@ from bowlrec.pins.records import PIN_GROUPS
 from .pin_records import PINS_FORMAT_VERSION
 
 if TYPE_CHECKING:
+    from bowlrec.core.trajectory import Trajectory
     from bowlrec.sinks.common import RunData
 
 __all__ = [
@@ -38,6 +39,8 @@ __all__ = [
     "RUN_STRING_COLUMNS",
     "DIGEST_ALGORITHM",
     "SCENE_FORMAT_VERSION",
+    "STATE_FIELDS",
+    "STATE_FORMAT_VERSION",
     "SEGMENT_FORMAT",
     "SEGMENT_FORMAT_VERSION",
     "SUMMARY_FLOAT_COLUMNS",
@@ -56,12 +59,19 @@ __all__ = [
     "row_matrix",
     "run_digest",
     "sample_columns",
+    "sample_parts",
+    "stored_samples",
+    "version_tuple",
 ]
 
 SEGMENT_FORMAT = "bowlrec-segment"
-#: major.minor this code writes: a base scene and per-run overrides, codes for event kinds and
-#: phases, one digest per block of runs (docs/archive-format.md). Readers accept 2.0 and on.
-SEGMENT_FORMAT_VERSION = "2.3"
+#: major.minor this code writes for a segment holding samples: the recorded state only, every
+#: other per-sample quantity derived on read (docs/archive-format.md). A segment without
+#: samples has the 2.3 layout and declares 2.3. Readers accept 2.0 and on.
+SEGMENT_FORMAT_VERSION = "3.0"
+#: the first version that stores the state of each sample only (STATE_FIELDS); a 2.x reader
+#: cannot read its samples, so it refuses the segment by its major version
+STATE_FORMAT_VERSION = "3.0"
 #: the first minor version with that layout (segments before it store every run's scene whole,
 #: event kinds and phases as text, and one BLAKE2b digest per run in ``runs/digest``)
 SCENE_FORMAT_VERSION = "2.3"
@@ -83,6 +93,18 @@ SUMMARY_BLOCK_RUNS = 256
 #: summary metrics stored as float64 columns (NaN stands for None) and as int64 columns
 SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
 SUMMARY_INT_COLUMNS = INT_METRICS
+#: per-sample quantities stored from format 3.0 on (the recorded state, the friction's
+#: direction), in the digest's order; the others of TRAJECTORY_FIELDS are derived on read
+STATE_FIELDS = (
+    "friction_dir",
+    "mu",
+    "omega_radps",
+    "phase",
+    "position_m",
+    "quaternion_wxyz",
+    "t_s",
+    "velocity_mps",
+)
 #: per-run index columns that are not summary metrics
 RUN_FLOAT_COLUMNS = ("speed_mps", "rev_rate_rpm", "mass_kg", "rtol", "wall_time_s")
 RUN_STRING_COLUMNS = ("run_id", "name", "ball_ref", "ball_sha", "pattern", "record", "solver")
@@ -135,7 +157,7 @@ class RunRecord:
     rtol: float
     wall_time_s: float
     created_at_ns: int
-    #: per-sample arrays by TRAJECTORY_FIELDS name (empty arrays for a summary-only run)
+    #: per-sample arrays by STATE_FIELDS name (empty for a summary-only run)
     trajectory: dict[str, NDArray[Any]] = field(default_factory=dict)
     #: per-term torques (n, 3) in N m, only when recorded
     torques: dict[str, NDArray[np.float64]] = field(default_factory=dict)
@@ -187,13 +209,28 @@ class RunRecord:
             created_at_ns=(time.time_ns() if created_at_ns is None else created_at_ns)
             // 1000
             * 1000,
-            trajectory={name: getattr(traj, name) for name in TRAJECTORY_FIELDS}
-            if traj.n_samples
-            else {},
+            trajectory=stored_samples(traj),
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records=check_records(run.run_id, {**_pin_records(run), **(records or {})}),
         )
+
+
+def stored_samples(traj: Trajectory) -> dict[str, NDArray[Any]]:
+    """A trajectory's samples as a segment stores them (STATE_FIELDS; empty without samples).
+    The friction's direction is the kernel's where the trajectory carries it, else the
+    direction of the stored friction force (a run read from an older format: 0 where there is
+    none; a rolling sample's direction is never used)."""
+    if not traj.n_samples:
+        return {}
+    out = {k: getattr(traj, k) for k in STATE_FIELDS if k != "friction_dir"}
+    direction = traj.friction_dir
+    if direction is None:
+        force = np.asarray(traj.friction_force_N, dtype=np.float64)[:, :2]
+        size = np.hypot(force[:, 0], force[:, 1])[:, None]
+        direction = np.divide(force, size, out=np.zeros_like(force), where=size > 0)
+    out["friction_dir"] = np.ascontiguousarray(direction, dtype=np.float64)
+    return out
 
 
 def _pin_records(run: RunData) -> dict[str, dict[str, NDArray[Any]]]:
@@ -341,11 +378,41 @@ def sample_columns(trajectory: dict[str, NDArray[Any]]) -> list[NDArray[Any]]:
     return [trajectory[k] for k in TRAJECTORY_FIELDS if k in trajectory]
 
 
+def sample_parts(
+    samples: dict[str, NDArray[Any]], offsets: NDArray[np.int64], state: bool
+) -> list[tuple[NDArray[Any], NDArray[np.int64]]]:
+    """The digest parts of a segment's samples (rows ``offsets``): from 3.0 on (``state``) one
+    part per STATE_FIELDS dataset, its bytes as stored (no copy); before, one part of the
+    TRAJECTORY_FIELDS side by side per sample (:func:`row_matrix`)."""
+    rows = int(offsets[-1])
+    if not state:
+        return [(row_matrix(sample_columns(samples), rows), offsets)]
+    out = []
+    for k in STATE_FIELDS:
+        arr = np.ascontiguousarray(samples[k]) if k in samples else np.zeros((rows, 0), np.uint8)
+        width = int(np.prod(arr.shape[1:], dtype=np.int64)) * arr.dtype.itemsize
+        out.append((arr.reshape(-1).view(np.uint8).reshape(rows, width), offsets))
+    return out
+
+
+def version_tuple(version: str) -> tuple[int, int]:
+    """``major.minor`` as integers ((0, 0) for what is not a version)."""
+    parts = version.split(".")
+    try:
+        return int(parts[0]), int(parts[1]) if len(parts) > 1 else 0
+    except ValueError:
+        return 0, 0
+
+
 def format_version_of(columns: dict[str, Any]) -> str:
-    """The segment format version of a segment's datasets: 2.3 for the layout this code writes
-    (a ``scene`` group); for the earlier layout 2.2 when they hold a run's pins
-    (:data:`PIN_GROUPS`), 2.1 when they hold other per-run record groups, else 2.0."""
+    """The segment format version of a segment's datasets: 3.0 when they hold samples (the
+    state only), else 2.3 for the layout this code writes (a ``scene`` group); for the earlier
+    layout 2.2 when they hold a run's pins (:data:`PIN_GROUPS`), 2.1 when they hold other
+    per-run record groups, else 2.0."""
     if "scene" in columns:
+        offsets = columns.get("trajectory", {}).get("offsets")
+        if offsets is not None and len(offsets) and int(offsets[-1]):
+            return STATE_FORMAT_VERSION
         return SCENE_FORMAT_VERSION
     extra = {g for g in columns if g not in FIXED_GROUPS and not g.startswith("_")}
     if extra & set(PIN_GROUPS):

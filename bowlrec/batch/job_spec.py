@@ -289,11 +289,12 @@ class JobSpec(_JobModel):
         "samples (options.record 'rate' unless the scene records 'steps' or 'rate'); scene: "
         "keep each scene's options.",
     )
-    samples: Literal["gzip", "none"] = Field(
+    samples: Literal["gzip", "lz4", "none"] = Field(
         default="gzip",
-        description="How recorded samples are stored: gzip (compact) or none (faster to write, "
-        "larger; benchmarks/results/pipeline.md compares them; `bowlrec runs compact` "
-        "recompresses later).",
+        description="How recorded samples are stored: gzip (compact, readable wherever HDF5 "
+        "is), lz4 (Blosc LZ4: faster to write, a little larger; needs the hdf5plugin package "
+        "to read) or none (fastest, largest); benchmarks/results/pipeline.md compares them; "
+        "`bowlrec runs compact` recompresses later with gzip.",
     )
     formats: list[Literal["mcap", "rrd"]] = Field(
         default_factory=list,

@@ -21,6 +21,8 @@ from .codes import (
     COL_PHASE,
     COL_STATE,
     COL_T,
+    COL_UX,
+    COL_UY,
     EV_KIND,
     EV_MU,
     EV_PHASE,
@@ -28,11 +30,13 @@ from .codes import (
     EV_X,
     EV_Y,
     EVENT_KINDS,
+    N_COL,
     OBS_STATE,
     OBS_T,
     OBS_WHAT,
     PHASE_NAMES,
     PHASE_ROLL,
+    PHASE_SLIDE,
     S_QW,
     S_VX,
     S_WX,
@@ -134,7 +138,6 @@ def solve(
     par, y0, x_edges, y_edges, mu_grid = args[:5]  # the kernel does not change them
     rec = rec[:nrec]
     ev = ev[:nev]
-    mass = plan.mass_kg
     events = [
         Event(
             t_s=float(row[EV_T]),
@@ -154,10 +157,27 @@ def solve(
         rolling_at_release(y0, par, x_edges, y_edges, mu_grid, float(plan.rtol), plan.g_mps2)
     )
     summary = summarize(y0, slide_x, rolling, int(status), float(t_end), y_end, nev, nsteps, nfev)
-    derive = derive_samples if rec.shape[0] else derive_samples.py_func
-    normal, friction, slips, energy, alpha, inertia_alpha, torques = derive(
-        rec, par, bool(plan.record_terms)
+    arrays, torque_arrays = sample_arrays(rec, par, plan.mass_kg, bool(plan.record_terms), plan)
+    return Trajectory(
+        **arrays,
+        events=events,
+        summary=summary,
+        torques_Nm=torque_arrays,
+        observations=_observations(obs[:nobs]),
     )
+
+
+def sample_arrays(
+    rec: np.ndarray, par: np.ndarray, mass: float, record_terms: bool, plan: Plan | None = None
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """A kernel's sample rows (``rec``, columns in :mod:`bowlrec.core.codes`) as the
+    trajectory's per-sample arrays (the :class:`Trajectory` fields by name, with
+    ``friction_dir``) and its per-term torques (when ``record_terms``): the state as recorded,
+    forces, slip, energy and alpha derived from it (:func:`derive_samples`). ``par``: the kernel
+    parameters of the run (:func:`bowlrec.core.arguments.kernel_params`); ``plan`` tells whether
+    the external torque term exists (None: it does not)."""
+    derive = derive_samples if rec.shape[0] else derive_samples.py_func
+    normal, friction, slips, energy, alpha, inertia_alpha, torques = derive(rec, par, record_terms)
     n = rec.shape[0]
     position = np.zeros((n, 3))
     position[:, :2] = rec[:, COL_STATE + S_X : COL_STATE + S_X + 2]
@@ -168,31 +188,47 @@ def solve(
     fric3 = np.zeros((n, 3))
     fric3[:, :2] = friction * mass
     torque_arrays: dict[str, np.ndarray] = {}
-    if plan.record_terms:
+    if record_terms:
         for j, name in enumerate(INERTIA_TERMS):
             torque_arrays[name] = inertia_alpha[:, j, :] * mass
         for j, name in enumerate(TORQUE_TERMS):
             torque_arrays[name] = torques[:, j, :] * mass
-        if plan.external_terms:
+        if plan is not None and plan.external_terms:
             torque_arrays[EXTERNAL_TERM] = torques[:, len(TORQUE_TERMS), :] * mass
-    return Trajectory(
-        t_s=rec[:, COL_T].copy(),
-        position_m=position,
-        velocity_mps=velocity,
-        quaternion_wxyz=rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4].copy(),
-        omega_radps=rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3].copy(),
-        phase=(rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
-        mu=rec[:, COL_MU].copy(),
-        normal_force_N=normal * mass,
-        friction_force_N=fric3,
-        slip_mps=slip3,
-        energy_J=energy * mass,
-        alpha_radps2=alpha,
-        events=events,
-        summary=summary,
-        torques_Nm=torque_arrays,
-        observations=_observations(obs[:nobs]),
-    )
+    arrays = {
+        "t_s": rec[:, COL_T].copy(),
+        "position_m": position,
+        "velocity_mps": velocity,
+        "quaternion_wxyz": rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4].copy(),
+        "omega_radps": rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3].copy(),
+        "phase": (rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
+        "mu": rec[:, COL_MU].copy(),
+        "normal_force_N": normal * mass,
+        "friction_force_N": fric3,
+        "slip_mps": slip3,
+        "energy_J": energy * mass,
+        "alpha_radps2": alpha,
+        "friction_dir": rec[:, COL_UX : COL_UY + 1].copy(),
+    }
+    return arrays, torque_arrays
+
+
+def sample_rows(state: dict[str, np.ndarray]) -> np.ndarray:
+    """The kernel's sample rows again from the recorded state (``t_s``, ``position_m``,
+    ``velocity_mps``, ``quaternion_wxyz``, ``omega_radps``, ``phase`` 0/1, ``mu`` and
+    ``friction_dir``, as :func:`sample_arrays` gives them): :func:`sample_arrays` of the result
+    gives the same arrays, the derived ones computed anew."""
+    n = int(state["t_s"].shape[0])
+    rec = np.empty((n, N_COL))
+    rec[:, COL_T] = state["t_s"]
+    rec[:, COL_STATE + S_X : COL_STATE + S_X + 2] = state["position_m"][:, :2]
+    rec[:, COL_STATE + S_VX : COL_STATE + S_VX + 2] = state["velocity_mps"][:, :2]
+    rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4] = state["quaternion_wxyz"]
+    rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3] = state["omega_radps"]
+    rec[:, COL_PHASE] = np.where(state["phase"] == 1, float(PHASE_ROLL), float(PHASE_SLIDE))
+    rec[:, COL_MU] = state["mu"]
+    rec[:, COL_UX : COL_UY + 1] = state["friction_dir"]
+    return rec
 
 
 def _observations(rows: np.ndarray) -> list[Observation]:

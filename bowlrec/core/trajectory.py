@@ -131,6 +131,11 @@ class Trajectory:
     observations: list[Observation] = field(default_factory=list)
     #: the pins after the ball when the scene asked for pin action (options.pins), else None
     pins: PinOutcome | None = None
+    #: (n, 2) unit direction (x, y) of the sliding friction force as the kernel applied it (a
+    #: sample's slip direction at the start of its step); with the state above it gives every
+    #: other per-sample quantity again (:func:`bowlrec.core.solver.sample_arrays`); None when
+    #: not known (e.g. a run file's trajectory)
+    friction_dir: NDArray[np.float64] | None = None
 
     @property
     def n_samples(self) -> int:
