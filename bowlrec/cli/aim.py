@@ -17,6 +17,7 @@ from ._common import (
     print_table,
     with_status,
 )
+from ._first_use import first_use
 
 VaryOption = Annotated[
     list[str] | None,
@@ -122,6 +123,7 @@ def aim(
         from bowlrec.bowling.calibration import breakpoint_board_for, pattern_length_ft
 
         breakpoint_board = breakpoint_board_for(pattern_length_ft(bowler.pattern_model()))
+    first_use("observe")
     result = solve_aim(bowler, vary or ["target"], pocket, breakpoint_board=breakpoint_board)
     written = out if out is not None and result.found else None
     if written is not None:
@@ -216,6 +218,7 @@ def variance(
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
+    first_use("batch_parallel")
     result = with_status(
         f"{n} repeats", quiet, lambda: release_scatter(bowler, PRESETS[preset], n, seed, pocket)
     )
@@ -284,6 +287,7 @@ def tolerance(
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
     bowler = bowler_scene_or_exit(scene)
+    first_use("batch_parallel")
     tmap = with_status("mapping", quiet, lambda: tolerance_map(bowler, pocket=pocket))
     if plot is not None:
         from bowlrec.figures.variance import write_tolerance_figure

@@ -28,6 +28,7 @@ from ._common import (
     with_progress,
     with_status,
 )
+from ._first_use import first_use, scene_variants
 from ._outputs import (
     ConnectOption,
     McapOption,
@@ -113,6 +114,7 @@ def run_parsed_scene(
             typer.echo(
                 "note: recording every step (options.record = 'steps') for the outputs", err=True
             )
+    first_use(*scene_variants(scene_obj, observed=parsed.bowler is not None))
     status = "simulating (first run compiles kernels)"
     if scene_obj.options.pins is not False:
         status = "simulating the lane and the pins (first run compiles kernels)"
@@ -261,6 +263,7 @@ def paper(
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
 
+    first_use("closed_form")  # the paper's uniform ball, summaries only
     rows = with_progress(
         quiet,
         "Table III (first run compiles the kernels)",
