@@ -21,6 +21,7 @@ what it measured).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import os
 import platform
@@ -57,6 +58,18 @@ def _snapshot(tmp: Path) -> Path:
     shutil.copytree(ROOT / "bowlrec", snap / "bowlrec", ignore=ignore)
     shutil.copytree(ROOT / "examples", snap / "examples", ignore=ignore)
     return snap
+
+
+def _seed(source: Path, cache: Path, snap: Path) -> None:
+    """Copy numba's entries and bowlrec's stamp from ``source`` to where numba looks for the
+    snapshot's ``bowlrec/core`` under ``NUMBA_CACHE_DIR`` = ``cache`` (numba's index keys hold
+    no paths, and its source stamps are content hashes)."""
+    core = snap / "bowlrec" / "core"
+    target = cache / f"core_{hashlib.sha1(str(core).encode()).hexdigest()}"
+    target.mkdir(parents=True)
+    for f in source.iterdir():
+        if f.suffix in (".nbi", ".nbc") or f.name == "bowlrec-kernel-deps.json":
+            shutil.copy2(f, target / f.name)
 
 
 def _env(tmp: Path, snap: Path, cache: Path) -> dict[str, str]:
@@ -103,15 +116,29 @@ def _left(env: dict[str, str], snap: Path) -> list[str]:
     return list(json.loads(proc.stdout)) if proc.returncode == 0 else ["?"]
 
 
+def _notice(run: dict[str, Any]) -> str:
+    """yes/no; "-" for a run whose notice was not recorded (a run of other sources)."""
+    return "-" if "notice" not in run else ("yes" if run["notice"] else "no")
+
+
 def _markdown(doc: dict[str, Any]) -> str:
     lines = [
         f"Measured {doc['date']} on {doc['machine']} (`python -m benchmarks.first_use`): one "
         "run each, in an empty HOME with its own `NUMBA_CACHE_DIR`, on a shared machine (load "
         "average before each run in the tables; wall times under load are longer than on an "
-        "idle machine).",
+        "idle machine). The parts may come from separate invocations (`--only`, `--skip-cold`, "
+        "`--skip-warm`) of the same sources.",
         "",
     ]
     w = doc.get("warm", {})
+    if doc.get("seeded"):
+        lines += [
+            "The cache of the `bowlrec warm` part was seeded with the entries a full warm-up "
+            "of the same sources wrote (`--seed-cache`): its first `bowlrec warm` loads only. "
+            "A cold `bowlrec warm` compiles every variant: 154 s on 2 idle cores "
+            "([kernel_cache.md](kernel_cache.md), the same variants and the RK4 scheme).",
+            "",
+        ]
     if w:
         lines += ["## `bowlrec warm`", "", "| run | wall (s) | load | printed |"]
         lines += ["|---|---|---|---|"]
@@ -125,7 +152,9 @@ def _markdown(doc: dict[str, Any]) -> str:
         "## Each command",
         "",
         "First use: in an empty cache; again: the same cache, run again; after `bowlrec warm`:"
-        " a cache `bowlrec warm` filled. Compiled: the variants the first use built.",
+        " a cache `bowlrec warm` filled. Compiled: the variants the first use built. Notice: "
+        "whether the first-use line was printed (-: not recorded, a run of earlier sources of "
+        "the command line, the same kernels).",
         "",
         "| command | first use (s) | load | notice | compiled | again (s) | after `bowlrec "
         "warm` (s) | notice after warm |",
@@ -142,14 +171,14 @@ def _markdown(doc: dict[str, Any]) -> str:
             cells += [
                 f"{c['first']['wall_s']}{ok}",
                 str(c["first"]["load_before"]),
-                "yes" if c["first"]["notice"] else "no",
+                _notice(c["first"]),
                 ", ".join(c["compiled"]) or "none",
                 str(c["again"]["wall_s"]),
             ]
         else:
             cells += ["", "", "", "", ""]
         if a is not None:
-            cells += [str(a["wall_s"]), "yes" if a["notice"] else "no"]
+            cells += [str(a["wall_s"]), _notice(a)]
         else:
             cells += ["", ""]
         lines.append("| " + " | ".join(cells) + " |")
@@ -161,6 +190,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     parser.add_argument("--only", nargs="*", help="commands of COMMANDS (default: all)")
     parser.add_argument("--skip-warm", action="store_true", help="no 'after bowlrec warm' part")
+    parser.add_argument("--skip-cold", action="store_true", help="no 'first use' part")
+    parser.add_argument(
+        "--seed-cache",
+        type=Path,
+        help="copy numba's entries of bowlrec/core from this directory into the cache of the "
+        "'after bowlrec warm' part first (its first 'bowlrec warm' then loads only)",
+    )
     args = parser.parse_args(argv)
     names = args.only or list(COMMANDS)
     doc: dict[str, Any] = {
@@ -170,6 +206,7 @@ def main(argv: list[str] | None = None) -> int:
         "warm": {},
         "after_warm": {},
         "cold": {},
+        "seeded": args.seed_cache is not None,
     }
 
     def save() -> None:
@@ -182,13 +219,15 @@ def main(argv: list[str] | None = None) -> int:
         snap = _snapshot(tmp)
         if not args.skip_warm:
             env = _env(tmp, snap, tmp / "cache-warm")
+            if args.seed_cache is not None:
+                _seed(args.seed_cache, tmp / "cache-warm", snap)
             for key in ("first", "again"):
                 doc["warm"][key] = _run(["warm"], env, snap, tmp / "out")
                 save()
             for name in names:
                 doc["after_warm"][name] = _run(COMMANDS[name], env, snap, tmp / "out" / "w")
                 save()
-        for i, name in enumerate(names):
+        for i, name in enumerate([] if args.skip_cold else names):
             env = _env(tmp, snap, tmp / f"cache-{i}")
             first = _run(COMMANDS[name], env, snap, tmp / "out" / str(i))
             left = _left(env, snap)

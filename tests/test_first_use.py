@@ -217,3 +217,31 @@ def test_warm_compiles_in_a_fresh_cache_then_loads_only(run_bowlrec: Any, tmp_pa
         check=True,
     )
     assert json.loads(out.stdout) == [[], False]  # all there, read without numba
+
+
+def test_scene_variants_follow_what_the_run_records() -> None:
+    from bowlrec.cli._first_use import scene_variants
+    from bowlrec.spec import Scene
+
+    scene = Scene.model_validate(json.loads(CASE01.read_text()))  # a uniform ball, every step
+    assert scene_variants(scene) == ("rate",)
+    assert scene_variants(scene, summary_only=True) == ("closed_form",)  # --no-archive, no file
+    assert scene_variants(scene, observed=True, summary_only=True) == ("closed_form", "observe")
+
+
+def test_a_bowler_scene_file_gets_the_notice_before_it_is_read(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Reading a bowler scene simulates (its launch angle is solved): the notice comes first,
+    once per process."""
+    from bowlrec.cli import _first_use
+
+    monkeypatch.setattr(_first_use, "_shown", [])
+    monkeypatch.setattr(warm, "missing", lambda *names, **kw: list(names))
+    bowler = ROOT / "examples" / "bowler" / "house-shot-right.json"
+    assert _first_use.first_use_of_file(tmp_path / "none.json") == []
+    assert _first_use.first_use_of_file(_summary_scene(tmp_path)) == []
+    assert _first_use.first_use_of_file(bowler) == ["observe", "integrator"]
+    assert _first_use.first_use("integrator") == ["integrator"]
+    err = capsys.readouterr().err
+    assert err.count("first use:") == 1 and "(observe, integrator; about" in err

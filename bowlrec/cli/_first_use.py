@@ -13,11 +13,18 @@ warning about the wait, not progress, and stdout stays the command's output.
 from __future__ import annotations
 
 import math
+import re
+from pathlib import Path
 from typing import Any
 
 import typer
 
-__all__ = ["first_use", "notice", "scene_variants"]
+__all__ = ["first_use", "first_use_of_file", "notice", "scene_variants"]
+
+#: a bowler scene's format key, in JSON or YAML
+_BOWLER = re.compile(r"""["']?format["']?\s*:\s*["']?bowler\b""")
+#: whether this process printed the notice (once is enough)
+_shown: list[str] = []
 
 
 def notice(lacking: list[str]) -> str:
@@ -42,16 +49,33 @@ def first_use(*variants: str) -> list[str]:
         lacking = missing(*variants)
     except (OSError, ValueError):
         return []
-    if lacking:
+    if lacking and not _shown:
         typer.echo(notice(lacking), err=True)
+        _shown.extend(lacking)
     return lacking
 
 
-def scene_variants(scene: Any, observed: bool = False) -> tuple[str, ...]:
+def first_use_of_file(path: Path) -> list[str]:
+    """:func:`first_use` before a scene file is read, for a bowler scene (its format key says
+    so), whose reading simulates already (its launch angle is solved on observed runs): the
+    observed integrator and the integrator. Nothing for another file or one it cannot read."""
+    try:
+        text = Path(path).read_text(errors="replace")
+    except OSError:
+        return []
+    return first_use("observe", "integrator") if _BOWLER.search(text) else []
+
+
+def scene_variants(
+    scene: Any, observed: bool = False, summary_only: bool = False
+) -> tuple[str, ...]:
     """The variants simulating ``scene`` (a :class:`~bowlrec.spec.Scene`) loads: the closed form
     where it applies, else the integrator (``rate`` when it records samples); ``observed``: also
-    the observed integrator (a bowler scene's report). None when the scene does not resolve
-    (the command reports that itself)."""
+    the observed integrator (a bowler scene's report); ``summary_only``: the run records no
+    samples whatever the scene asks. None when the scene does not resolve (the command reports
+    that itself)."""
+    from dataclasses import replace
+
     from bowlrec.core.arguments import use_closed_form
     from bowlrec.core.codes import RECORD_SUMMARY
 
@@ -59,6 +83,8 @@ def scene_variants(scene: Any, observed: bool = False) -> tuple[str, ...]:
         plan = scene.resolve()
     except Exception:  # noqa: BLE001 - the command reports an unusable scene itself
         return ()
+    if summary_only:
+        plan = replace(plan, record_mode=RECORD_SUMMARY)
     if use_closed_form(plan):
         base = "closed_form"
     else:

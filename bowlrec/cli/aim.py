@@ -118,12 +118,12 @@ def aim(
     if rule_of_31 and breakpoint_board is not None:
         fail("--rule-of-31 and --breakpoint-board: give one (the rule decides the board)")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe")  # reading the bowler scene simulates already
     bowler = bowler_scene_or_exit(scene)
     if rule_of_31:
         from bowlrec.bowling.calibration import breakpoint_board_for, pattern_length_ft
 
         breakpoint_board = breakpoint_board_for(pattern_length_ft(bowler.pattern_model()))
-    first_use("observe")
     result = solve_aim(bowler, vary or ["target"], pocket, breakpoint_board=breakpoint_board)
     written = out if out is not None and result.found else None
     if written is not None:
@@ -217,8 +217,8 @@ def variance(
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe", "batch_parallel")  # reading the bowler scene simulates already
     bowler = bowler_scene_or_exit(scene)
-    first_use("batch_parallel")
     result = with_status(
         f"{n} repeats", quiet, lambda: release_scatter(bowler, PRESETS[preset], n, seed, pocket)
     )
@@ -286,8 +286,8 @@ def tolerance(
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe", "batch_parallel", "closed_form")  # reading the scene simulates already
     bowler = bowler_scene_or_exit(scene)
-    first_use("batch_parallel")
     tmap = with_status("mapping", quiet, lambda: tolerance_map(bowler, pocket=pocket))
     if plot is not None:
         from bowlrec.figures.variance import write_tolerance_figure

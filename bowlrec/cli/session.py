@@ -114,7 +114,7 @@ def session(
     root = str(store.root)
     store.close()
     several = len(files) > 1
-    first_use("integrator")
+    first_use("observe", "integrator")  # bowler-language shots
     tasks = [
         (spec.model_dump_json(), _out_dir(out, f, several, spec.name if len(specs) > 1 else None))
         for f, specs in sessions

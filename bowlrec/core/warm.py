@@ -49,6 +49,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from bowlrec.errors import UnavailableError
+
 from .codes import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
 from .plan import Plan
 
@@ -218,8 +220,9 @@ def missing(*names: str, cache_dir: Path | None = None) -> list[str]:
     return [name for name in chosen if not all(cached(e) for e in ENTRIES[name])]
 
 
-class WarmUpError(RuntimeError):
-    """A kernel variant failed to compile or run (its error is the cause)."""
+class WarmUpError(UnavailableError, RuntimeError):
+    """A kernel variant failed to compile or run (its error is the cause): the compiled kernels
+    are not available."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -356,7 +359,8 @@ def _units(names: Sequence[str]) -> list[list[str]]:
 def compile_seconds(names: Sequence[str]) -> float:
     """A rough CPU time (s) of compiling the variants ``names`` from an empty cache: the
     estimates of :data:`_COST`, once per unit of variants sharing signatures."""
-    return sum(max(_COST.get(n, 10) for n in unit) for unit in _units(names))
+    units = [next((u for u in _UNITS if n in u), (n,)) for n in names]
+    return sum(max(_COST.get(n, 10) for n in unit) for unit in dict.fromkeys(units))
 
 
 def split(names: Sequence[str], jobs: int) -> list[list[str]]:
