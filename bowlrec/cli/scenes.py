@@ -266,7 +266,7 @@ def paper(
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
 
-    first_use("closed_form")  # the paper's uniform ball, summaries only
+    first_use("closed_form", "integrator")  # summaries: uniform balls and the others
     rows = with_progress(
         quiet,
         "Table III (first run compiles the kernels)",
