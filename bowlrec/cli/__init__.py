@@ -32,6 +32,7 @@ MODULES = (
     "scenes",
     "serve",
     "session",
+    "warm",
 )
 
 #: each command and command group of ``bowlrec`` -> the module of :data:`MODULES` registering it
@@ -61,6 +62,7 @@ COMMANDS = {
     "serve": "serve",
     "ui": "serve",
     "session": "session",
+    "warm": "warm",
 }
 
 

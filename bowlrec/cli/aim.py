@@ -17,6 +17,7 @@ from ._common import (
     print_table,
     with_status,
 )
+from ._first_use import first_use
 
 VaryOption = Annotated[
     list[str] | None,
@@ -118,6 +119,7 @@ def aim(
     if rule_of_31 and breakpoint_board is not None:
         fail("--rule-of-31 and --breakpoint-board: give one (the rule decides the board)")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe")  # reading the bowler scene simulates already
     bowler = bowler_scene_or_exit(scene)
     if rule_of_31:
         from bowlrec.bowling.calibration import breakpoint_board_for, pattern_length_ft
@@ -233,6 +235,7 @@ def variance(
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe", "batch_parallel")  # reading the bowler scene simulates already
     bowler = bowler_scene_or_exit(scene)
     result = with_status(
         f"{n} repeats", quiet, lambda: release_scatter(bowler, PRESETS[preset], n, seed, pocket)
@@ -301,6 +304,7 @@ def tolerance(
     if plot is not None and plot.suffix.lower() not in (".png", ".svg"):
         fail(f"--plot {plot}: give a .png or .svg path")
     pocket = pocket_from_options(pocket_board, board_window, angle, angle_window)
+    first_use("observe", "batch_parallel", "closed_form")  # reading the scene simulates already
     bowler = bowler_scene_or_exit(scene)
     tmap = with_status("mapping", quiet, lambda: tolerance_map(bowler, pocket=pocket))
     if plot is not None:

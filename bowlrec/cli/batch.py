@@ -23,6 +23,7 @@ from ._common import (
     open_archive,
     warn,
 )
+from ._first_use import first_use
 
 if TYPE_CHECKING:
     from bowlrec.batch import BatchProgress
@@ -165,8 +166,9 @@ def batch(
     show = interactive(quiet)
     failures = _FirstFailure(writer.write)
     last = _LastProgress()
+    compiling = bool(first_use("batch")) if scheduler is None else False
     try:
-        with _progress(show, spec.count(), last) as update:
+        with _progress(show, spec.count(), last, compiling) as update:
             result = run_recorded_job(
                 spec,
                 store,
@@ -289,7 +291,8 @@ def _replay_default(prefix: Path) -> Path:
 class _progress:
     """A rich progress bar (runs, rate, ETA) on a terminal; a no-op callback otherwise."""
 
-    def __init__(self, show: bool, total: int, last: _LastProgress) -> None:
+    def __init__(self, show: bool, total: int, last: _LastProgress, compiling: bool) -> None:
+        self.compiling = compiling  # the workers compile kernels first (first use)
         self.show = show
         self.total = total
         self.last = last
@@ -312,15 +315,16 @@ class _progress:
             TextColumn("[progress.description]{task.description}"),
             BarColumn(),
             MofNCompleteColumn(),
-            TextColumn("{task.fields[rate]:.1f} runs/s"),
+            TextColumn("{task.fields[rate]}"),
             TimeElapsedColumn(),
             TextColumn("ETA"),
             TimeRemainingColumn(),
             transient=True,
         )
         self.bar.__enter__()
+        starting = "compiling the kernels: first use" if self.compiling else "loading the kernels"
         self.task = self.bar.add_task(
-            "batch: starting workers (loading the compiled kernels)", total=self.total, rate=0.0
+            f"batch: starting workers ({starting})", total=self.total, rate=""
         )
         return self.update
 
@@ -329,7 +333,8 @@ class _progress:
         if p.done == 0:
             return
         desc = f"batch ({p.failed} failed)" if p.failed else "batch"
-        self.bar.update(self.task, completed=p.done, rate=p.rate_per_s, description=desc)
+        rate = f"{p.rate_per_s:.1f} runs/s"
+        self.bar.update(self.task, completed=p.done, rate=rate, description=desc)
 
     def __exit__(self, *exc: object) -> None:
         if self.bar is not None:

@@ -14,6 +14,7 @@ from bowlrec.sinks.registry import sink_named
 
 from ._app import app
 from ._common import ArchiveOption, QuietOption, open_archive, with_progress
+from ._first_use import first_use
 
 #: the paper's Fig. 6 comparison; case 16 is written to MCAP and rerun
 FIG6_CASES = (9, 10, 14, 16)
@@ -132,6 +133,7 @@ def _simulate_all(store: Any, scenes: list[Any], quiet: bool) -> list[Any]:
                 advance(scene)
         return results
 
+    first_use("rate")  # the scenes record samples
     return with_progress(
         quiet, "Table III into the archive (first run compiles)", len(scenes), work
     )

@@ -9,6 +9,7 @@ import typer
 
 from ._app import app
 from ._common import ArchiveOption, JsonOption, QuietOption, parse_scene_or_exit
+from ._first_use import first_use_of_file
 from ._outputs import (
     ConnectOption,
     McapOption,
@@ -81,6 +82,8 @@ def pins(
 
     from .scenes import run_parsed_scene
 
+    if scene is not None:
+        first_use_of_file(scene)  # a bowler scene simulates as it is read
     parsed = parse_scene_or_exit(scene, archive) if scene is not None else ParsedScene(Scene())
     updates: dict[str, Any] = {}
     if seed is not None:

@@ -25,6 +25,7 @@ from ._common import (
     print_table,
 )
 from ._common import open_archive as _open
+from ._first_use import first_use
 from ._outputs import (
     ConnectOption,
     McapOption,
@@ -539,4 +540,5 @@ def _simulated(scene: Any) -> Any:
     """A scene file simulated on the spot (sampled at 5 ms if the scene is summary-only)."""
     from bowlrec.archive.replay import simulate_sampled
 
+    first_use("rate")
     return simulate_sampled(scene)

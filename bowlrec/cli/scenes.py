@@ -28,6 +28,7 @@ from ._common import (
     with_progress,
     with_status,
 )
+from ._first_use import first_use, first_use_of_file, scene_variants
 from ._outputs import (
     ConnectOption,
     McapOption,
@@ -70,6 +71,8 @@ def simulate(
     """
     from bowlrec.spec import Scene
 
+    if scene is not None:
+        first_use_of_file(scene)  # a bowler scene simulates as it is read
     parsed = parse_scene_or_exit(scene, archive) if scene is not None else ParsedScene(Scene())
     run_parsed_scene(
         parsed,
@@ -113,6 +116,8 @@ def run_parsed_scene(
             typer.echo(
                 "note: recording every step (options.record = 'steps') for the outputs", err=True
             )
+    summary_only = store is None and not (needs_samples or files)  # see _solve_unarchived
+    first_use(*scene_variants(scene_obj, parsed.bowler is not None, summary_only))
     status = "simulating (first run compiles kernels)"
     if scene_obj.options.pins is not False:
         status = "simulating the lane and the pins (first run compiles kernels)"
@@ -265,6 +270,7 @@ def paper(
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
 
+    first_use("closed_form", "integrator")  # summaries: uniform balls and the others
     rows = with_progress(
         quiet,
         "Table III (first run compiles the kernels)",

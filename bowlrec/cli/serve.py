@@ -37,6 +37,7 @@ from bowlrec.service.names import (
 
 from ._app import app
 from ._common import ARCHIVE_DEFAULT_HELP, EXIT_INTERRUPTED, ArchiveOption, fail, open_archive
+from ._first_use import first_use
 
 #: the largest request-body limit serve accepts (MiB): 4 GiB
 MAX_BODY_MB = 4096.0
@@ -250,6 +251,7 @@ def _serve(
         from bowlrec.service.app import create_app
 
         store = open_archive(archive, create=create)
+        first_use("service")  # the server loads these before it answers
         if scheduler is None:
             scheduler = config_value("scheduler")
         application = create_app(  # JobsLockedError when another server runs its jobs

@@ -10,6 +10,7 @@ import typer
 
 from ._app import app
 from ._common import ArchiveOption, JsonOption, QuietOption, fail, open_archive, with_progress
+from ._first_use import first_use
 
 if TYPE_CHECKING:
     from bowlrec.session.runner import SessionResult
@@ -113,6 +114,7 @@ def session(
     root = str(store.root)
     store.close()
     several = len(files) > 1
+    first_use("observe", "integrator")  # bowler-language shots
     tasks = [
         (spec.model_dump_json(), _out_dir(out, f, several, spec.name if len(specs) > 1 else None))
         for f, specs in sessions

@@ -42,10 +42,17 @@ before an edit and compiles a new signature after another process's check writes
 from the old sources. Restart long-running processes (a server, a pytest session) after editing
 kernel code.
 
-``vec`` imports this module, and every kernel entry point (integrator, closed form, batch) imports
-``vec``, so the check of ``bowlrec/core`` runs once per process, before the first kernel loads
-(its result: :data:`LAST`); ``bowlrec.testing.rk4`` runs :func:`drop_stale_kernels` on its own
-directory.
+``vec`` runs :func:`check_core` when imported, and every kernel entry point (integrator, closed
+form, batch) imports ``vec``, so the check of ``bowlrec/core`` runs once per process, before the
+first kernel loads (its result: :data:`LAST`); importing this module checks nothing and imports
+no numba. ``bowlrec.testing.rk4`` runs :func:`drop_stale_kernels` on its own directory.
+
+Reading the cache without numba (``bowlrec.core.warm.missing``, the commands' first-use
+notice): :func:`numba_cache_dir` is numba's choice of directory, found by numba's rule;
+:func:`cached_signatures` reads a kernel's index file (``.nbi``: numba's version, then the
+source stamp, a SHA-256 of the module's file, and the signatures it holds, each naming its data
+file), with every numba type read as its name; :func:`stamp_current` tells whether the check
+would drop anything.
 
 Loading: before numba loads a kernel from its cache it refreshes its whole target context, which
 imports and installs every implementation numba has (typed containers, random generators,
@@ -75,6 +82,7 @@ import importlib.machinery
 import importlib.util
 import json
 import os
+import pickle
 import sys
 import time
 from collections.abc import Iterator
@@ -86,11 +94,15 @@ __all__ = [
     "LAST",
     "STAMP",
     "Dropped",
+    "cached_signatures",
+    "check_core",
     "drop_stale_kernels",
     "kernel_cache_dir",
     "kernel_dependencies",
     "load_lean",
     "module_imports",
+    "numba_cache_dir",
+    "stamp_current",
 ]
 
 #: the stamp of a cache directory: file hashes and each kernel module's dependency hash
@@ -266,6 +278,90 @@ def kernel_cache_dir(directory: Path) -> Path | None:
         return None
 
 
+def numba_cache_dir(directory: Path) -> Path | None:
+    """The directory numba caches the kernels of ``directory``'s modules in, found by numba's
+    rule without importing numba (:func:`kernel_cache_dir` asks numba): ``NUMBA_CACHE_DIR``
+    (numba's setting once numba is imported), else ``__pycache__`` beside the sources when it
+    can be written, else numba's user-wide cache (Linux and macOS). None when none can be
+    written. The directory may not exist yet (numba creates it)."""
+    directory = Path(os.path.abspath(directory))  # numba's paths: absolute, links not resolved
+    config = sys.modules.get("numba.core.config")
+    root = getattr(config, "CACHE_DIR", None) if config else os.environ.get("NUMBA_CACHE_DIR")
+    hashed = f"{directory.name}_{hashlib.sha1(str(directory).encode()).hexdigest()}"
+    if root:
+        return Path(root) / hashed if _writable(Path(root)) else None
+    if _writable(directory / "__pycache__"):
+        return directory / "__pycache__"
+    if sys.platform == "darwin":
+        user = Path.home() / "Library" / "Caches"
+    elif sys.platform.startswith("win"):
+        return None
+    else:
+        user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return user / "numba" / hashed if _writable(user) else None
+
+
+def _writable(path: Path) -> bool:
+    """Whether ``path`` can be written, or created with its missing parents."""
+    while not path.exists():
+        if path.parent == path:
+            return False
+        path = path.parent
+    return path.is_dir() and os.access(path, os.W_OK | os.X_OK)
+
+
+class _IndexReader(pickle.Unpickler):
+    """Reads numba's cache index without numba: each numba type becomes its name, nothing else
+    of numba is built (no class of numba or any other module is ever called)."""
+
+    def find_class(self, module: str, name: str) -> Any:
+        if (module, name) == ("numba.core.types.abstract", "_type_reconstructor"):
+            return lambda _rebuild, _args, state: (state or {}).get("name")
+        if module.startswith("numba.") or (module, name) in _HARMLESS:
+            return lambda *args, **kw: None
+        raise pickle.UnpicklingError(f"{module}.{name} in a numba index")
+
+
+_HARMLESS = {("copyreg", "_reconstructor"), ("builtins", "object")}
+
+
+def cached_signatures(cache: Path, source: Path, function: str) -> list[tuple[Any, ...]]:
+    """The signatures (tuples of argument type names: ``"float64"``, ``"array(float64, 1d,
+    C)"``, ``"none"``...) numba's cache directory ``cache`` holds for the kernel ``function``
+    (its qualified name) of the module file ``source``: those of an index written by this numba
+    for the file's current content, whose data file is there. Read without importing numba;
+    an index it cannot read holds none."""
+    try:
+        from importlib.metadata import version
+
+        numba_version = version("numba")
+        content = source.read_bytes()
+    except (OSError, ImportError, ValueError):
+        return []
+    digest = hashlib.sha256(content).digest()
+    tag = f"py{sys.version_info.major}{sys.version_info.minor}"
+    found = []
+    for index in sorted(cache.glob(f"{source.stem}.{function}-*.{tag}.nbi")):
+        try:
+            with open(index, "rb") as f:
+                if pickle.load(f) != numba_version:
+                    continue
+                stamp, overloads = _IndexReader(f).load()
+        except Exception:  # noqa: BLE001 - any unreadable index holds nothing
+            continue
+        if stamp != digest:
+            continue
+        found += [key[0] for key, data in overloads.items() if (cache / data).is_file()]
+    return found
+
+
+def stamp_current(directory: Path, cache: Path) -> bool:
+    """Whether the stamp in ``cache`` was written for the current sources of ``directory``:
+    :func:`drop_stale_kernels` would drop nothing (a read and a hash per file, no parsing)."""
+    directory = Path(directory).resolve()
+    return _current(directory, _top_package(directory), _read_stamp(Path(cache)))
+
+
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
@@ -434,5 +530,14 @@ def load_lean(*kernels: Any) -> None:
             cache.__class__ = lean
 
 
-#: what the check of ``bowlrec/core`` did when this module was imported
-LAST = drop_stale_kernels(Path(__file__).parent)
+#: what the check of ``bowlrec/core`` did in this process (:func:`check_core`); None before it
+LAST: Dropped | None = None
+
+
+def check_core() -> Dropped:
+    """The check of ``bowlrec/core`` (:func:`drop_stale_kernels`), once per process: ``vec``
+    runs it when imported, before any kernel loads. Returns what it did (:data:`LAST`)."""
+    global LAST
+    if LAST is None:
+        LAST = drop_stale_kernels(Path(__file__).parent)
+    return LAST

@@ -10,7 +10,9 @@ from typing import Any
 
 from numba import njit
 
-from . import _kernel_cache  # noqa: F401  (drops stale kernel caches first)
+from ._kernel_cache import check_core
+
+check_core()  # drops stale kernel caches first
 
 #: numba options of the kernels' helper functions, which allocate nothing: no reference counting
 #: (numba's atomic increments/decrements of their array arguments cost a large share of the

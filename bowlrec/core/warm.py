@@ -25,7 +25,11 @@ loaded. A name is a variant of :data:`VARIANTS` or a group of :data:`GROUPS`:
 The command warms the named kernels (default ``all``) and prints one line: seconds, kernels
 compiled, kernels loaded. ``--jobs N`` splits the work over N processes, each compiling a
 disjoint part of the variants (see :func:`warm_up_in_processes`: measured in
-benchmarks/results/kernel_cache.md).
+benchmarks/results/kernel_cache.md). ``bowlrec warm`` is the same with a progress bar.
+
+:func:`missing` tells, without importing numba, which variants numba's on-disk cache lacks for
+the current sources (each variant's :data:`ENTRIES`: the kernels it calls from Python, with the
+signatures it needs): what the commands' first-use notice asks before they load kernels.
 """
 
 from __future__ import annotations
@@ -40,18 +44,26 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from typing import Any
+from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
+
+from bowlrec.errors import UnavailableError
 
 from .codes import RECORD_RATE, RECORD_STEPS, RECORD_SUMMARY
 from .plan import Plan
 
 __all__ = [
+    "ENTRIES",
     "GROUPS",
     "VARIANTS",
+    "Entry",
     "WarmUp",
+    "WarmUpError",
+    "compile_seconds",
     "kernel_counts",
+    "missing",
     "offset_plan",
     "split",
     "uniform_plan",
@@ -149,6 +161,70 @@ GROUPS: dict[str, tuple[str, ...]] = {
 }
 
 
+class Entry(NamedTuple):
+    """A kernel of ``bowlrec/core`` a variant calls from Python: its module (file stem), its
+    function, and what the signature it needs has at some argument positions: (position, the
+    start of the argument's numba type name), e.g. ``(15, "none")``: no observed stations."""
+
+    module: str
+    function: str
+    args: tuple[tuple[int, str], ...] = ()
+
+
+#: the kernels each variant calls from Python (numba keeps what they call compiled into them);
+#: ``integrator`` is the summary-only run (``warm_up`` also loads the helper deriving forces
+#: and energies for it, which only a run recording samples calls)
+_SIMULATE = Entry("integrator", "simulate_kernel", ((15, "none"),))
+_SAMPLED = (_SIMULATE, Entry("derive", "derive_samples"))
+ENTRIES: dict[str, tuple[Entry, ...]] = {
+    "closed_form": (Entry("closed_form", "closed_form_kernel"),),
+    "integrator": (_SIMULATE,),
+    "steps": _SAMPLED,
+    "rate": _SAMPLED,
+    "observe": (Entry("integrator", "simulate_kernel", ((15, "array"),)),),
+    "batch_serial": (Entry("batch", "_run_serial"),),
+    "batch_parallel": (Entry("batch", "_run_parallel"),),
+}
+
+
+def missing(*names: str, cache_dir: Path | None = None) -> list[str]:
+    """The variants of ``names`` (variants or groups; none: ``all``) that would compile now: a
+    kernel of theirs (:data:`ENTRIES`) has no entry of the signature they need in numba's cache
+    for its current source (``cache_dir``, default the one numba uses for ``bowlrec/core``).
+    Imports no numba when the cache is current or empty; when bowlrec's stamp of the cache is
+    out of date (the sources changed), runs the check that drops the stale entries first
+    (:func:`~bowlrec.core._kernel_cache.check_core`, which imports numba). [] when numba has no
+    cache directory it can write."""
+    from . import _kernel_cache as kc
+
+    chosen = expand(names or ("all",), {})
+    core = Path(__file__).parent
+    cache = kc.numba_cache_dir(core) if cache_dir is None else Path(cache_dir)
+    if cache is None:
+        return []
+    if not (cache / kc.STAMP).is_file():  # numba has written nothing for these sources
+        return chosen
+    if not kc.stamp_current(core, cache):
+        kc.check_core() if cache_dir is None else kc.drop_stale_kernels(core, cache)
+    found: dict[tuple[str, str], list[tuple[Any, ...]]] = {}
+
+    def cached(entry: Entry) -> bool:
+        key = (entry.module, entry.function)
+        if key not in found:
+            found[key] = kc.cached_signatures(cache, core / f"{entry.module}.py", entry.function)
+        return any(
+            all(pos < len(sig) and str(sig[pos]).startswith(start) for pos, start in entry.args)
+            for sig in found[key]
+        )
+
+    return [name for name in chosen if not all(cached(e) for e in ENTRIES[name])]
+
+
+class WarmUpError(UnavailableError, RuntimeError):
+    """A kernel variant failed to compile or run (its error is the cause): the compiled kernels
+    are not available."""
+
+
 @dataclasses.dataclass(frozen=True)
 class WarmUp:
     """What :func:`warm_up` did: the variants it ran, wall and CPU seconds (this process, or
@@ -223,12 +299,14 @@ def warm_up(
     extra: Mapping[str, Callable[[], object]] | None = None,
     jobs: int = 1,
     module: str = __name__,
+    progress: Callable[[str, bool], None] | None = None,
 ) -> WarmUp:
     """Load or compile the kernel variants ``names`` (variants or groups, see the module doc;
     none: ``all``). ``extra``: more variants (name -> a function that runs them once), run when
     named or when ``all`` is. ``jobs`` > 1: in that many fresh processes at once
     (:func:`warm_up_in_processes` of ``python -m module``, which must know the same ``extra``).
-    Returns what it did (:class:`WarmUp`).
+    ``progress(name, done)`` is called as each variant starts (False) and ends (True). A variant
+    that fails raises :class:`WarmUpError` naming it. Returns what it did (:class:`WarmUp`).
 
     >>> warm_up("service")  # doctest: +SKIP
     WarmUp(names=('closed_form', 'integrator', 'batch_serial'), seconds=0.41, ...)
@@ -236,11 +314,18 @@ def warm_up(
     extra = dict(extra or {})
     chosen = expand(names or ("all",), extra)
     if jobs > 1:
-        return warm_up_in_processes(split(chosen, jobs), module)
+        return warm_up_in_processes(split(chosen, jobs), module, progress)
     start, cpu = time.perf_counter(), _cpu_seconds()
     compiled0, loaded0 = kernel_counts()
     for name in chosen:
-        (extra.get(name) or VARIANTS[name])()
+        if progress is not None:
+            progress(name, False)
+        try:
+            (extra.get(name) or VARIANTS[name])()
+        except Exception as err:
+            raise WarmUpError(f"kernel variant {name} failed: {err!r}") from err
+        if progress is not None:
+            progress(name, True)
     compiled, loaded = kernel_counts()
     return WarmUp(
         names=tuple(chosen),
@@ -265,11 +350,23 @@ _COST = {
 }
 
 
+def _units(names: Sequence[str]) -> list[list[str]]:
+    """``names`` grouped into the units of :data:`_UNITS` (variants alone otherwise)."""
+    units = [[n for n in names if n in unit] for unit in _UNITS]
+    return [u for u in units if u] + [[n] for n in names if not any(n in u for u in _UNITS)]
+
+
+def compile_seconds(names: Sequence[str]) -> float:
+    """A rough CPU time (s) of compiling the variants ``names`` from an empty cache: the
+    estimates of :data:`_COST`, once per unit of variants sharing signatures."""
+    units = [next((u for u in _UNITS if n in u), (n,)) for n in names]
+    return sum(max(_COST.get(n, 10) for n in unit) for unit in dict.fromkeys(units))
+
+
 def split(names: Sequence[str], jobs: int) -> list[list[str]]:
     """``names`` in at most ``jobs`` disjoint parts of about equal compile cost: the units of
     variants sharing signatures, costliest first, each to the part with the least so far."""
-    units = [[n for n in names if n in unit] for unit in _UNITS]
-    units = [u for u in units if u] + [[n] for n in names if not any(n in u for u in _UNITS)]
+    units = _units(names)
     units.sort(key=lambda u: -sum(_COST.get(n, 10) for n in u))
     parts: list[list[str]] = [[] for _ in range(max(1, jobs))]
     load = [0] * len(parts)
@@ -306,28 +403,51 @@ def _lock_cache_writes(lock: str) -> None:
     IndexDataCacheFile.save = locked_save  # type: ignore[method-assign]
 
 
-def warm_up_in_processes(parts: Sequence[Sequence[str]], module: str = __name__) -> WarmUp:
+def warm_up_in_processes(
+    parts: Sequence[Sequence[str]],
+    module: str = __name__,
+    progress: Callable[[str, bool], None] | None = None,
+) -> WarmUp:
     """Warm disjoint ``parts`` (lists of names) at once, one fresh ``python -m module`` process
     each, their writes to numba's cache serialized (:func:`_lock_cache_writes`; ``module``'s
-    command must be :func:`main`). The seconds are the wall time of the whole, the CPU seconds
-    and counts the sums over the processes."""
+    command must be :func:`main`). ``progress`` as in :func:`warm_up`, from the processes'
+    reports (called from one thread per process). A process that fails (its errors go to this
+    process's stderr) raises :class:`WarmUpError`. The seconds are the wall time of the whole,
+    the CPU seconds and counts the sums over the processes."""
+    import threading
+
     start = time.perf_counter()
+    outs: list[list[str]] = [[] for _ in parts]
+
+    def read(i: int, proc: subprocess.Popen[str]) -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            kind, _, name = line.strip().partition(" ")
+            if progress is not None and kind in ("start", "done") and name:
+                progress(name, kind == "done")
+            outs[i].append(line)
+
     with tempfile.TemporaryDirectory(prefix="bowlrec-warm-") as tmp:
         lock = os.path.join(tmp, "numba-cache-writes.lock")
         procs = [
             subprocess.Popen(
-                [sys.executable, "-m", module, "--json", "--cache-lock", lock, *part],
+                [sys.executable, "-m", module, "--json", "--progress", "--cache-lock", lock, *p],
                 stdout=subprocess.PIPE,
                 text=True,
             )
-            for part in parts
+            for p in parts
         ]
-        outs = [proc.communicate()[0] for proc in procs]
+        readers = [threading.Thread(target=read, args=(i, p)) for i, p in enumerate(procs)]
+        for reader in readers:
+            reader.start()
+        for proc, reader in zip(procs, readers, strict=True):
+            proc.wait()
+            reader.join()
     results = []
     for part, proc, out in zip(parts, procs, outs, strict=True):
-        if proc.returncode != 0:
-            raise RuntimeError(f"warming {' '.join(part)} failed (exit {proc.returncode})")
-        results.append(json.loads(out.strip().splitlines()[-1]))
+        if proc.returncode != 0 or not out:
+            raise WarmUpError(f"warming {' '.join(part)} failed (exit {proc.returncode})")
+        results.append(json.loads(out[-1]))
     return WarmUp(
         names=tuple(n for r in results for n in r["names"]),
         seconds=time.perf_counter() - start,
@@ -354,6 +474,7 @@ def main(
     )
     parser.add_argument("--json", action="store_true", help="print the result as JSON")
     parser.add_argument("--cache-lock", help=argparse.SUPPRESS)  # a part of --jobs
+    parser.add_argument("--progress", action="store_true", help=argparse.SUPPRESS)  # ditto
     args = parser.parse_args(argv)
     names = args.names or ["all"]
     try:
@@ -362,7 +483,13 @@ def main(
         parser.error(str(err))
     if args.cache_lock:
         _lock_cache_writes(args.cache_lock)
-    result = warm_up(*names, extra=extra, jobs=args.jobs, module=module)
+    report = None
+    if args.progress:
+
+        def report(name: str, done: bool) -> None:
+            print("done" if done else "start", name, flush=True)
+
+    result = warm_up(*names, extra=extra, jobs=args.jobs, module=module, progress=report)
     print(json.dumps(result.as_dict()) if args.json else result, flush=True)
     return 0
 
