@@ -44,7 +44,10 @@ def kind_of(data: Any) -> str | None:
     for kind, signs in _SIGNS:
         if signs & set(data):
             return kind
-    if data and set(data) <= _SCENE_FIELDS:
+    physical = {"lane", "delivery", "options", "air"} & set(data) or isinstance(
+        data.get("ball"), Mapping
+    )
+    if physical and set(data) <= _SCENE_FIELDS:  # a job may also have just a name and a ball
         return "scene"
     return None
 
