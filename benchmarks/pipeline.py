@@ -367,12 +367,8 @@ def service_rows(tmp: Path, n_job: int, clients: int, per_client: int) -> dict[s
     return out
 
 
-def _load(
-    url: str, clients: int, per_client: int, new_scene: bool, first: int | None = None
-) -> dict[str, Any]:
-    """``clients`` threads, each with its own httpx client, ``per_client`` requests each;
-    ``new_scene``: ``POST /runs`` of the scenes ``first``, ``first + 1``... (default: from the
-    clock, for a server measured once), else ``GET /health``."""
+def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str, Any]:
+    """``clients`` threads, each with its own httpx client, ``per_client`` requests each."""
     import threading
 
     import httpx
@@ -381,8 +377,7 @@ def _load(
 
     barrier = threading.Barrier(clients + 1)
     errors: list[str] = []
-    # the scenes' speeds stay below the 100 m/s bound: 6 m/s + 1e-6 m/s per scene number
-    base = first if first is not None else time.time_ns() // 1000 % 50_000_000
+    base = int(time.time() * 1000) % 1_000_000 * 1000
 
     def work(k: int) -> None:
         with httpx.Client(base_url=url, timeout=120) as c:

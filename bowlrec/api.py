@@ -10,7 +10,7 @@ from .scene_input import SceneSource, parse_scene_input
 
 if TYPE_CHECKING:
     from .archive import AddResult, Archive
-    from .archive.group_commit import RunCommitter
+    from .archive.group_commit import GroupCommitter
     from .core.plan import Plan
     from .spec import Scene
 
@@ -55,16 +55,15 @@ def simulate_into(
     *,
     ball_ref: str | None = None,
     method: str = "auto",
-    group: RunCommitter | None = None,
+    group: GroupCommitter | None = None,
 ) -> AddResult:
     """Simulate ``scene`` and store it in ``archive``, unless its run ID is archived already
     (then the stored trajectory is returned and nothing is simulated or written). A stored copy
     found damaged is set aside and the scene simulated again. ``ball_ref`` ("name@version")
     names the library ball the scene used (None: looked up by spec); ``method`` as in
     :func:`bowlrec.core.solver.solve`; ``group``: a
-    :class:`~bowlrec.archive.group_commit.GroupCommitter` (or a proxy of one in another
-    process) that seals summary-only runs together with those of other threads and processes
-    (a server's concurrent requests)."""
+    :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs together
+    with those of other threads (a server's concurrent requests)."""
     import time
 
     from .archive import AddResult, run_id

@@ -5,7 +5,6 @@ from __future__ import annotations
 import errno
 import threading
 from pathlib import Path
-from typing import Any
 
 from bowlrec.api import simulate_into
 from bowlrec.archive import Archive, faults
@@ -121,51 +120,3 @@ def test_a_committer_never_started_starts_on_first_use(tmp_path: Path) -> None:
         assert simulate_into(archive, _scene(7), group=group).added and group.commits == 1
     finally:
         group.close()
-
-
-def test_a_run_sealed_while_its_twin_is_registered_is_not_sealed_twice(
-    tmp_path: Path, monkeypatch: Any
-) -> None:
-    """The next segment is sealed while the last one is registered; a run whose ID is in the
-    segment being registered is not written again, and both threads get the one copy."""
-    import bowlrec.archive.group_commit as gc
-
-    archive = Archive(tmp_path / "a")
-    from bowlrec.archive import run_id
-    from bowlrec.core.solver import run_plan
-    from bowlrec.sinks.common import RunData
-
-    scene = _scene(3)
-    plan = scene.resolve()
-    run = RunData(scene, plan, run_plan(plan, "auto"), run_id(plan))
-    record = archive.record(run, wall_time_s=0.0)
-    entered, release = threading.Event(), threading.Event()
-    real_register = gc.register
-
-    def slow_register(d: Any, infos: Any) -> Any:
-        entered.set()
-        release.wait(30)
-        return real_register(d, infos)
-
-    monkeypatch.setattr(gc, "register", slow_register)
-    group = GroupCommitter(archive).start()
-    outcomes: list[tuple[bool, Path]] = []
-    try:
-        first = threading.Thread(target=lambda: outcomes.append(group.add(record)))
-        first.start()
-        assert entered.wait(30)  # the first segment is sealed and being registered
-        second = threading.Thread(target=lambda: outcomes.append(group.add(record)))
-        second.start()
-        while group._pending:  # the twin is taken by the sealing thread
-            threading.Event().wait(0.01)
-        release.set()
-        first.join(30)
-        second.join(30)
-    finally:
-        release.set()
-        group.close()
-    assert sorted(added for added, _ in outcomes) == [False, True]
-    assert len({path for _, path in outcomes}) == 1
-    assert group.commits == 1 and group.committed_runs == 1
-    assert len(list((tmp_path / "a" / "segments").glob("*.h5"))) == 1
-    assert archive.info()["runs"] == 1 and archive.info()["duplicate_copies"] == 0

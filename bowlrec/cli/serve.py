@@ -13,7 +13,6 @@ allow-list, Origin checks, body limit) is described in ``docs/service.md``.
 from __future__ import annotations
 
 import errno
-import functools
 import ipaddress
 import os
 import signal
@@ -46,8 +45,6 @@ DEFAULT_TOKEN_ENV = "BOWLREC_TOKEN"
 DEFAULT_MAX_BODY_MB = DEFAULT_MAX_BODY_BYTES / 2**20
 #: ports below this one need root (or CAP_NET_BIND_SERVICE)
 PRIVILEGED_PORTS = 1024
-#: the most server processes ``serve --workers`` starts
-MAX_WORKERS = 64
 
 
 def is_loopback(host: str) -> bool:
@@ -104,16 +101,6 @@ def serve(
         float,
         typer.Option(help="Largest request body, in MiB (larger ones get 413).", min=0.0),
     ] = DEFAULT_MAX_BODY_MB,
-    workers: Annotated[
-        int,
-        typer.Option(
-            help="Server processes: 1 = one process (default); N > 1 = N worker processes "
-            "that serve and simulate in parallel and a supervisor that writes the archive "
-            "(group commit), runs the jobs and restarts a worker that dies.",
-            min=1,
-            max=MAX_WORKERS,
-        ),
-    ] = 1,
     log_level: Annotated[
         str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
     ] = "info",
@@ -148,8 +135,7 @@ def serve(
     except OSError as err:
         fail(f"cannot listen on {host_port(host, port)}: {listen_error(err, host, port)}")
     auth = f"token from ${token_env}" if token else "no token"
-    run = functools.partial(_serve_workers, workers=workers) if workers > 1 else _serve
-    run(
+    _serve(
         sockets,
         archive,
         host,
@@ -213,20 +199,6 @@ def has_display() -> bool:
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
 
 
-def _require_service() -> None:
-    """MissingExtraError naming the library of the ``service`` extra that is not installed."""
-    try:
-        import uvicorn  # noqa: F401
-
-        import bowlrec.service.app  # noqa: F401
-    except ImportError as err:
-        raise MissingExtraError(
-            f"bowlrec serve needs {err.name or err}, which is not installed; install it "
-            "with: pip install 'bowlrec[service]'",
-            name=err.name,
-        ) from None
-
-
 def _serve(
     sockets: list[socket.socket],
     archive: Path | None,
@@ -245,11 +217,16 @@ def _serve(
     """Open the archive (``create``: a new one if there is none) and serve it on the bound
     ``sockets`` until Ctrl-C (exit 130)."""
     try:
-        _require_service()
-        import uvicorn
+        try:
+            import uvicorn
 
-        from bowlrec.service.app import create_app
-
+            from bowlrec.service.app import create_app
+        except ImportError as err:
+            raise MissingExtraError(
+                f"bowlrec serve needs {err.name or err}, which is not installed; install it "
+                "with: pip install 'bowlrec[service]'",
+                name=err.name,
+            ) from None
         store = open_archive(archive, create=create)
         first_use("service")  # the server loads these before it answers
         if scheduler is None:
@@ -276,81 +253,6 @@ def _serve(
     if interrupted:
         lost = f" ({cut_off} request(s) in progress cut off)" if cut_off else ""
         typer.echo(f"bowlrec: stopped{lost}", err=True)
-        raise typer.Exit(EXIT_INTERRUPTED)
-
-
-def _serve_workers(
-    sockets: list[socket.socket],
-    archive: Path | None,
-    host: str,
-    token: str | None,
-    auth: str,
-    *,
-    log_level: str,
-    job_workers: int = 0,
-    scheduler: str | None = None,
-    max_body_bytes: int | None = DEFAULT_MAX_BODY_BYTES,
-    allowed_hosts: list[str] | None = None,
-    workers: int,
-) -> None:
-    """:func:`_serve` with ``workers`` worker processes: this process opens the archive,
-    takes the jobs lock (JobsLockedError when another server runs this archive's jobs), holds
-    the group committer, the jobs and the sessions, and supervises the workers."""
-    try:
-        _require_service()
-        from bowlrec.archive.group_commit import GroupCommitter
-        from bowlrec.service.jobs import JobManager
-        from bowlrec.service.security import DEFAULT_SESSION_TTL_S, SessionStore
-
-        from ._workers import WorkerConfig, run_workers
-
-        store = open_archive(archive, create=True)
-        if scheduler is None:
-            scheduler = config_value("scheduler")
-        jobs = JobManager(store, workers=job_workers, scheduler=scheduler)
-        jobs.open()  # JobsLockedError when another server runs this archive's jobs
-    except BaseException:
-        for sock in sockets:
-            sock.close()
-        raise
-    bound_port = sockets[0].getsockname()[1]
-    url = f"http://{host_port(host, bound_port)}/"
-    typer.echo(
-        f"bowlrec: serving {store.root} on {url} ({auth}; {workers} worker processes); docs "
-        "at /docs",
-        err=True,
-    )
-    commits = GroupCommitter(store).start()
-    sessions = SessionStore(DEFAULT_SESSION_TTL_S)
-    config = WorkerConfig(
-        root=str(store.root),
-        token=token,
-        max_body_bytes=max_body_bytes,
-        allowed_hosts=tuple(allowed_hosts or ()),
-        session_ttl_s=sessions.ttl_s,
-        host=host,
-        port=bound_port,
-        log_level=log_level,
-        address="",
-        authkey=b"",
-        supervisor_pid=os.getpid(),
-    )
-    jobs.start()
-    try:
-        interrupted, _ = run_workers(
-            workers,
-            sockets,
-            config,
-            {"commits": commits, "jobs": jobs, "sessions": sessions},
-            lambda line: typer.echo(line, err=True),
-        )
-    finally:
-        commits.close()  # commits what the workers handed over
-        jobs.stop()
-        for sock in sockets:
-            sock.close()
-    typer.echo("bowlrec: stopped", err=True)
-    if interrupted:
         raise typer.Exit(EXIT_INTERRUPTED)
 
 

@@ -103,7 +103,6 @@ from .security import (
     bearer_matches,
     token_matches,
 )
-from .shared import Committer, Jobs, Sessions, Shared
 from .slots import RecordingSlots
 
 __all__ = ["create_app"]
@@ -155,19 +154,17 @@ class _State:
     def __init__(
         self,
         archive: Archive,
-        jobs: Jobs,
+        jobs: JobManager,
         token: str | None,
         session_ttl_s: float = DEFAULT_SESSION_TTL_S,
-        shared: Shared | None = None,
     ) -> None:
 
         self.archive = archive
         self.jobs = jobs
-        #: seals the summary-only runs of concurrent POST /runs requests together (in a
-        #: worker process: the supervisor's committer, shared by every worker)
-        self.commits: Committer = GroupCommitter(archive) if shared is None else shared.commits
+        #: seals the summary-only runs of concurrent POST /runs requests together
+        self.commits = GroupCommitter(archive)
         self.token = token
-        self.sessions: Sessions = SessionStore(session_ttl_s) if shared is None else shared.sessions
+        self.sessions = SessionStore(session_ttl_s)
         #: server paths out of error details
         self.redact = Redactor(archive.root)
         self.cache_dir = archive.root / "cache"
@@ -654,7 +651,6 @@ def create_app(
     max_body_bytes: int | None = DEFAULT_MAX_BODY_BYTES,
     allowed_hosts: Iterable[str] = (),
     session_ttl_s: float = DEFAULT_SESSION_TTL_S,
-    shared: Shared | None = None,
 ) -> FastAPI:
     """The service for the archive at ``archive_dir`` (created if missing).
 
@@ -670,10 +666,6 @@ def create_app(
     MiB). ``allowed_hosts``: ``Host`` names accepted besides the loopback ones (requests
     without the bearer token naming another host get 400). ``session_ttl_s``: the lifetime of
     a cookie session. Raises ValueError for an allowed host that is not a host name.
-
-    ``shared``: the group committer, jobs and sessions of the server's supervisor process, for
-    the application of one of several worker processes (:mod:`bowlrec.service.workers`); the
-    application then takes no jobs lock and ``job_workers`` and ``scheduler`` are unused.
     """
 
     hosts = list(allowed_hosts)
@@ -683,12 +675,12 @@ def create_app(
     if max_body_bytes is not None and max_body_bytes < 0:
         raise ValueError("max_body_bytes must be >= 0 (or None: no limit)")
     archive = Archive(archive_dir)
-    job_manager: Jobs = (
-        JobManager(archive, workers=job_workers, scheduler=scheduler)
-        if shared is None
-        else shared.jobs
+    state = _State(
+        archive,
+        JobManager(archive, workers=job_workers, scheduler=scheduler),
+        token or None,
+        session_ttl_s,
     )
-    state = _State(archive, job_manager, token or None, session_ttl_s, shared)
     state.jobs.open()  # fails now (JobsLockedError) if another server runs this archive's jobs
 
     @contextlib.asynccontextmanager
