@@ -1,10 +1,12 @@
 """Segment format 3.0: a segment holding samples stores each sample's state, and the other
 per-sample quantities are derived on read (docs/archive-format.md, "Samples (3.0)"): a run
-written now reads back bit for bit what the simulation gave, a run of an older format reads
-back from its migrated copy as it read before, and the committed 3.0 fixture reads."""
+written now reads back bit for bit what the simulation gave, a run whose derived quantities
+its state does not give back (an older format's, one built by hand) keeps them as stored, and
+the committed 3.0 fixture reads."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 from pathlib import Path
@@ -12,32 +14,28 @@ from typing import Any
 
 import h5py
 import numpy as np
+import pytest
+from helpers.archive_contract import change_value_in_place, seal
 
 from bowlrec.archive import Archive, run_id
 from bowlrec.archive.migrate import migrate
 from bowlrec.archive.segment_format import STATE_FIELDS, TRAJECTORY_FIELDS
 from bowlrec.core.solver import solve
+from bowlrec.errors import RunDamagedError
 from bowlrec.sinks import RunData
 from bowlrec.sinks.hdf5_run import read_run_file
 from bowlrec.spec import Scene
 
 FIXTURES = Path(__file__).parent / "fixtures"
-#: quantities derived on read; a run migrated from an older format agrees with what it stored
-#: to this relative tolerance (its friction direction comes from its stored friction force)
 DERIVED = sorted(set(TRAJECTORY_FIELDS) - set(STATE_FIELDS))
-RTOL = 1e-12
 
 
-def _assert_agree(new: Any, old: Any) -> None:
-    """Two trajectories of one run: the state equal, the derived quantities within RTOL."""
+def _assert_same(new: Any, old: Any) -> None:
+    """Two trajectories of one run read back equal, bit for bit."""
     assert new.n_samples == old.n_samples
     for k in TRAJECTORY_FIELDS:
         a, b = getattr(new, k), getattr(old, k)
-        if k in DERIVED:
-            scale = max(1.0, float(np.abs(b).max())) if b.size else 1.0
-            np.testing.assert_allclose(a, b, rtol=RTOL, atol=RTOL * scale, err_msg=k)
-        else:
-            np.testing.assert_array_equal(a, b, err_msg=k)
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), k
 
 
 def test_a_recorded_run_stores_its_state_and_reads_back_bit_for_bit(tmp_path: Path) -> None:
@@ -91,7 +89,8 @@ def test_committed_v3_0_fixture_archive_reads(tmp_path: Path) -> None:
 def test_every_older_format_migrates_to_3_0_and_reads_back_the_same(tmp_path: Path) -> None:
     """The committed fixtures of 1.0 and 2.0-2.3 in one archive, migrated: each run with
     samples reads from its 3.0 copy as it read from the older segment (from the 1.0 run
-    file), the state bit for bit and the derived quantities within RTOL."""
+    file), bit for bit: an older run's friction direction is not the kernel's, so the forces,
+    slip, energy and alpha it stored are kept as stored."""
     root = shutil.copytree(FIXTURES / "archive-v1", tmp_path / "archive")
     assert migrate(root)["runs"] == 2
     archive = Archive(root, create=False)
@@ -100,7 +99,7 @@ def test_every_older_format_migrates_to_3_0_and_reads_back_the_same(tmp_path: Pa
         if old.trajectory.n_samples:
             new = archive.load(old.run_id)
             assert new.attrs["format_version"] == "3.0"
-            _assert_agree(new.trajectory, old.trajectory)
+            _assert_same(new.trajectory, old.trajectory)
     for older in ("archive-v2", "archive-v2.1", "archive-v2.2", "archive-v2.3"):
         for seg in (FIXTURES / older / "segments").glob("*.h5"):
             shutil.copy(seg, root / "segments" / seg.name)
@@ -118,7 +117,56 @@ def test_every_older_format_migrates_to_3_0_and_reads_back_the_same(tmp_path: Pa
         assert new.attrs["format_version"] in (
             ("3.0",) if old.trajectory.n_samples else ("2.3", "3.0")
         )
-        _assert_agree(new.trajectory, old.trajectory)
+        _assert_same(new.trajectory, old.trajectory)
         assert new.trajectory.torques_Nm.keys() == old.trajectory.torques_Nm.keys()
     assert archive.repair()["damaged_runs"] == []
     assert migrate(root)["segments_rewritten"] == 0
+
+
+def _hand_built(traj: Any) -> Any:
+    """``traj`` with its normal force changed by one part in 10**9: a trajectory its state no
+    longer gives back."""
+    return dataclasses.replace(traj, normal_force_N=traj.normal_force_N * (1.0 + 1e-9))
+
+
+def test_derived_quantities_the_state_does_not_give_are_stored_as_given(tmp_path: Path) -> None:
+    """A segment with one kernel run and one run whose normal force is not what its state
+    gives: both read back bit for bit (the segment stores every run's derived quantities), a
+    segment of kernel runs alone stores the state only, and the stored derived quantities are
+    under the digest (a changed value is damage)."""
+    scene = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.01}})
+    other = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.02}})
+    runs = [
+        RunData(s, s.resolve(), solve(s.resolve()), run_id(s.resolve())) for s in (scene, other)
+    ]
+    changed = dataclasses.replace(runs[1], trajectory=_hand_built(runs[1].trajectory))
+    archive = Archive(tmp_path / "a")
+    both = seal(archive, [runs[0], changed])
+    alone = seal(archive, [dataclasses.replace(runs[0], run_id="cd" * 10)])
+    for run in (runs[0], changed):
+        _assert_same(archive.load(run.run_id or "").trajectory, run.trajectory)
+    with h5py.File(both, "r", locking=False) as f:
+        assert set(f["trajectory"]) == {*STATE_FIELDS, *DERIVED, "offsets"}
+        assert f["trajectory/normal_force_N"].attrs["units"] == "N"
+    with h5py.File(alone, "r", locking=False) as f:
+        assert set(f["trajectory"]) == {*STATE_FIELDS, "offsets"}
+    assert archive.repair()["damaged_runs"] == []
+    archive.close()
+    change_value_in_place(both, "trajectory/energy_J", 3)
+    archive = Archive(tmp_path / "a", create=False)
+    with pytest.raises(RunDamagedError):
+        archive.load(runs[0].run_id or "")
+
+
+def test_a_kernel_trajectory_is_marked_derived_until_its_arrays_change() -> None:
+    """The kernel's trajectory is marked as derived from its state (the writer then stores the
+    state without deriving again): its per-sample arrays are read-only, and the mark is gone
+    once an array is replaced or the trajectory is copied with dataclasses.replace."""
+    plan = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.01}}).resolve()
+    traj = solve(plan)
+    assert traj.derived_from_state()
+    with pytest.raises(ValueError, match="read-only"):
+        traj.energy_J[0] = 0.0
+    assert not dataclasses.replace(traj).derived_from_state()
+    traj.energy_J = traj.energy_J.copy()
+    assert not traj.derived_from_state()

@@ -77,3 +77,30 @@ def test_a_library_ball_keeps_the_samples_the_outputs_need(tmp_path: Path) -> No
     assert res.exit_code == 0, res.output
     with np.load(npz) as data:
         assert data["t_s"].shape[0] > 10
+
+
+def test_a_batch_whose_job_record_cannot_be_written_still_runs(tmp_path: Path) -> None:
+    """The job record in ``ARCHIVE/jobs/cli/`` only lists the batch on the web app: when it
+    cannot be written (here ``jobs`` is a file), the batch archives every run, exits 0 and
+    says in one warning line that the Jobs page will not list it."""
+    root = tmp_path / "archive"
+    Archive(root).close()
+    (root / "jobs").write_text("not a directory")
+    job = tmp_path / "job.json"
+    job.write_text(
+        json.dumps(
+            {
+                "format": "bowlrec-job",
+                "name": "unlisted",
+                "base": {"options": {"record": "summary"}},
+                "sweep": {"kind": "grid", "axes": {"delivery.speed_mps": [7.0, 8.0]}},
+            }
+        )
+    )
+    out = tmp_path / "t.csv"
+    done = runner.invoke(app, ["batch", str(job), "-a", str(root), "-j", "0", "-q", "-o", str(out)])
+    assert done.exit_code == 0, done.output
+    warnings = [line for line in done.output.splitlines() if line.startswith("warning:")]
+    assert len(warnings) == 1 and "Jobs page will not list this batch" in warnings[0]
+    assert str(root / "jobs") in warnings[0]
+    assert len(Archive(root).list_runs()) == 2

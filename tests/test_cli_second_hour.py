@@ -114,38 +114,24 @@ def _error_lines(args: list[str]) -> list[str]:
 
 
 def test_a_file_given_to_the_wrong_command_names_the_right_one() -> None:
-    """A scene to `batch`, a job to `simulate`, a session to `batch`: one line naming what
+    """A scene to `batch`, a job to `simulate`, a session to `simulate`: one line naming what
     the file is and the command that runs it, not the other format's field errors."""
     bowler, job = (
         ROOT / "examples/bowler/pocket-right.json",
         ROOT / "examples/jobs/speed-rev-grid.json",
     )
     session = ROOT / "examples/session/league-night.yaml"
-    cases = [
-        (
-            ["batch", str(bowler), "--no-archive"],
-            "this is a bowler scene, not a batch job",
-            "`bowlrec simulate`",
-        ),
-        (
-            ["batch", str(CASE16), "--no-archive"],
-            "this is a physical scene, not a batch job",
-            "`bowlrec simulate`",
-        ),
-        (
-            ["simulate", str(job), "--no-archive"],
-            "this is a batch job, not a scene",
-            "`bowlrec batch`",
-        ),
-        (
-            ["simulate", str(session), "--no-archive"],
-            "this is a session, not a scene",
-            "`bowlrec session`",
-        ),
-        (["session", str(job)], "this is a batch job, not a session", "`bowlrec batch`"),
-        (["carry", str(bowler)], "this is a bowler scene, not a carry map", "`bowlrec simulate`"),
+    cases = [  # (command, file, what the file is, the command that runs it)
+        ("batch", bowler, "bowler scene, not a batch job", "simulate"),
+        ("batch", CASE16, "physical scene, not a batch job", "simulate"),
+        ("simulate", job, "batch job, not a scene", "batch"),
+        ("simulate", session, "session, not a scene", "session"),
+        ("session", job, "batch job, not a session", "batch"),
+        ("carry", bowler, "bowler scene, not a carry map", "simulate"),
     ]
-    for args, what, command in cases:
+    for given, path, kind, right in cases:
+        args = [given, str(path), *(["--no-archive"] if given in ("batch", "simulate") else [])]
+        what, command = f"this is a {kind}", f"`bowlrec {right}`"
         lines = _error_lines(args)
         assert len(lines) == 1, lines
         assert what in lines[0] and command in lines[0], lines

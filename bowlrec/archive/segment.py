@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from bowlrec.core.codes import EV_KIND, EV_MU, EV_PHASE, EV_T, EV_X, EV_Y, EVENT_KINDS, PHASE_NAMES
 
+from .derived import DERIVED_FIELDS, derived_samples
 from .pin_records import pin_index_columns
 from .scene_store import Path as FieldPath
 from .scene_store import path_text
@@ -258,11 +259,22 @@ class SegmentBuilder:
         lengths = [int(r.trajectory["t_s"].shape[0]) if r.trajectory else 0 for r in self.records]
         offsets = np.zeros(len(self.records) + 1, dtype=np.int64)
         np.cumsum(lengths, out=offsets[1:])
-        recorded = [r.trajectory for r in self.records if r.trajectory]
+        recorded = [r for r in self.records if r.trajectory]
         out: dict[str, NDArray[Any]] = {}
-        if recorded:
-            for name in STATE_FIELDS:
-                out[name] = np.concatenate([t[name] for t in recorded])
+        if not recorded:
+            return out, offsets
+        for name in STATE_FIELDS:
+            out[name] = np.concatenate([r.trajectory[name] for r in recorded])
+        if any(DERIVED_FIELDS[0] in r.trajectory for r in recorded):
+            # one run's derived quantities stored as given: every run's are stored
+            full = [
+                r.trajectory
+                if DERIVED_FIELDS[0] in r.trajectory
+                else derived_samples(r.trajectory, r.scene_json.decode())
+                for r in recorded
+            ]
+            for name in DERIVED_FIELDS:
+                out[name] = np.concatenate([t[name] for t in full])
         return out, offsets
 
     def _torques(self) -> tuple[dict[str, NDArray[Any]], NDArray[np.int64], list[str]]:

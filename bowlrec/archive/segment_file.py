@@ -18,11 +18,11 @@ from pathlib import Path
 from typing import Any
 
 import h5py
-import hdf5plugin  # registers the Blosc filter of samples = "lz4" (reading and writing)
 import numpy as np
 from numpy.typing import NDArray
 
 from bowlrec.atomic_files import atomic_path
+from bowlrec.core.plan import Plan
 from bowlrec.core.trajectory import Event, Summary, Trajectory
 from bowlrec.errors import RunDamagedError, SegmentError
 from bowlrec.pins.records import PIN_MEANINGS, pin_engine, pin_outcome_of
@@ -30,7 +30,7 @@ from bowlrec.sinks.hdf5_run import GZIP_FILTERS
 from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
-from .derived import derived_samples
+from .derived import DERIVED_FIELDS, derived_samples
 from .pin_records import pin_index_columns
 from .scene_store import scene_text
 from .segment_format import (
@@ -192,13 +192,23 @@ _INCOMPRESSIBLE = frozenset(
 )
 #: per-sample storage filters (write_segment's ``samples``)
 SAMPLE_FILTERS = ("gzip", "lz4", "none")
-#: samples = "lz4": Blosc (HDF5 filter 32001) with its byte shuffle and LZ4 at level 5, ~10x
-#: gzip's speed for ~12 % more bytes on recorded samples (benchmarks/results/pipeline.md);
-#: readable by h5py after ``import hdf5plugin``, by h5dump with HDF5_PLUGIN_PATH set to
-#: ``hdf5plugin.PLUGIN_PATH``
-LZ4_FILTERS: dict[str, Any] = {
-    "compression": hdf5plugin.Blosc(cname="lz4", clevel=5, shuffle=hdf5plugin.Blosc.SHUFFLE)
-}
+
+
+@functools.cache
+def lz4_filters() -> dict[str, Any]:
+    """The dataset options of samples = "lz4": Blosc (HDF5 filter 32001) with its byte shuffle
+    and LZ4 at level 5, ~10x gzip's speed for ~12 % more bytes on recorded samples
+    (benchmarks/results/pipeline.md). Importing ``hdf5plugin`` registers the filter with h5py
+    (~60 ms, so it is done only where samples are written or read: :class:`SegmentFile` does
+    it for a segment holding samples); h5dump reads it with HDF5_PLUGIN_PATH set to
+    ``hdf5plugin.PLUGIN_PATH``."""
+    import hdf5plugin
+
+    return {
+        "compression": hdf5plugin.Blosc(cname="lz4", clevel=5, shuffle=hdf5plugin.Blosc.SHUFFLE)
+    }
+
+
 _SAMPLE_GROUPS = {"trajectory", "torques"}
 
 
@@ -216,7 +226,7 @@ def _storage(group: str, name: str, data: NDArray[Any], samples: str = "gzip") -
     if (samples == "none" and group in _SAMPLE_GROUPS) or (group, name) in _INCOMPRESSIBLE:
         return {"chunks": (rows, *data.shape[1:])}
     if samples == "lz4" and group in _SAMPLE_GROUPS:
-        return {"chunks": (rows, *data.shape[1:]), **LZ4_FILTERS}
+        return {"chunks": (rows, *data.shape[1:]), **lz4_filters()}
     return {"chunks": (rows, *data.shape[1:]), **GZIP_FILTERS}
 
 
@@ -256,6 +266,12 @@ class StoredRecord:
     #: the groups that have rows for this run
     records: dict[str, dict[str, NDArray[Any]]]
 
+    def plan(self) -> Plan:
+        """The run's scene resolved (what a reader derives the samples under)."""
+        from bowlrec.spec import Scene
+
+        return Scene.model_validate_json(self.scene_json).resolve()
+
     def to_record(self) -> RunRecord:
         """The run as a segment record again (to rewrite it into another segment)."""
         c = self.columns
@@ -276,7 +292,7 @@ class StoredRecord:
             rtol=c["rtol"],
             wall_time_s=c["wall_time_s"],
             created_at_ns=c["created_at_ns"],
-            trajectory=stored_samples(traj),
+            trajectory=stored_samples(traj, self.plan()) if traj.n_samples else {},
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records={g: dict(d) for g, d in self.records.items()},
@@ -324,6 +340,8 @@ class SegmentFile:
         self.blocks = version_tuple(version) >= (2, 3)
         #: 3.0 and on: samples store the state only, the rest is derived on read
         self.state = version_tuple(version) >= version_tuple(STATE_FORMAT_VERSION)
+        if self.state:  # only a segment holding samples may store them with Blosc LZ4
+            lz4_filters()
         self._dsets: dict[str, Any] = {}
         self._scene_shared: dict[str, Any] | None = None
         self._names: dict[str, list[str] | None] = {}
@@ -644,9 +662,11 @@ class SegmentFile:
             )
             for i in range(int(events["t_s"].shape[0]))
         ]
+        derived = False
         if not samples:
             samples = _empty_samples()
-        elif self.state:
+        elif self.state and not all(k in samples for k in DERIVED_FIELDS):
+            derived = True
             try:
                 samples = derived_samples(samples, scene.decode())
             except (ValueError, KeyError, TypeError) as err:
@@ -661,6 +681,8 @@ class SegmentFile:
             torques_Nm=dict(torques),
             pins=pin_outcome_of(own),
         )
+        if derived:
+            traj.mark_derived_from_state()
         attrs = {k: v for k, v in self.provenance.items() if k not in ("n_runs",)}
         engine = pin_engine(own)
         if engine is not None:
@@ -813,7 +835,7 @@ class SegmentFile:
     @property
     def _sample_fields(self) -> tuple[str, ...]:
         """The per-sample datasets this segment's format stores."""
-        return STATE_FIELDS if self.state else TRAJECTORY_FIELDS
+        return STATE_FIELDS + DERIVED_FIELDS if self.state else TRAJECTORY_FIELDS
 
     def _sample_parts(self) -> list[tuple[NDArray[Any], NDArray[np.int64]]]:
         """Every run's samples as the block digests take them (read whole)."""

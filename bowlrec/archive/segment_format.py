@@ -20,12 +20,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, Summary
+from bowlrec.core.trajectory import FLOAT_METRICS, INT_METRICS, STATE_SAMPLE_FIELDS, Summary
 from bowlrec.pins.records import PIN_GROUPS
 
+from .derived import DERIVED_FIELDS, given_samples
 from .pin_records import PINS_FORMAT_VERSION
 
 if TYPE_CHECKING:
+    from bowlrec.core.plan import Plan
     from bowlrec.core.trajectory import Trajectory
     from bowlrec.sinks.common import RunData
 
@@ -95,16 +97,7 @@ SUMMARY_FLOAT_COLUMNS = FLOAT_METRICS
 SUMMARY_INT_COLUMNS = INT_METRICS
 #: per-sample quantities stored from format 3.0 on (the recorded state, the friction's
 #: direction), in the digest's order; the others of TRAJECTORY_FIELDS are derived on read
-STATE_FIELDS = (
-    "friction_dir",
-    "mu",
-    "omega_radps",
-    "phase",
-    "position_m",
-    "quaternion_wxyz",
-    "t_s",
-    "velocity_mps",
-)
+STATE_FIELDS = STATE_SAMPLE_FIELDS
 #: per-run index columns that are not summary metrics
 RUN_FLOAT_COLUMNS = ("speed_mps", "rev_rate_rpm", "mass_kg", "rtol", "wall_time_s")
 RUN_STRING_COLUMNS = ("run_id", "name", "ball_ref", "ball_sha", "pattern", "record", "solver")
@@ -157,7 +150,8 @@ class RunRecord:
     rtol: float
     wall_time_s: float
     created_at_ns: int
-    #: per-sample arrays by STATE_FIELDS name (empty for a summary-only run)
+    #: per-sample arrays by STATE_FIELDS name, and by DERIVED_FIELDS name when they are stored
+    #: as given (:func:`stored_samples`; empty for a summary-only run)
     trajectory: dict[str, NDArray[Any]] = field(default_factory=dict)
     #: per-term torques (n, 3) in N m, only when recorded
     torques: dict[str, NDArray[np.float64]] = field(default_factory=dict)
@@ -209,18 +203,20 @@ class RunRecord:
             created_at_ns=(time.time_ns() if created_at_ns is None else created_at_ns)
             // 1000
             * 1000,
-            trajectory=stored_samples(traj),
+            trajectory=stored_samples(traj, plan),
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records=check_records(run.run_id, {**_pin_records(run), **(records or {})}),
         )
 
 
-def stored_samples(traj: Trajectory) -> dict[str, NDArray[Any]]:
-    """A trajectory's samples as a segment stores them (STATE_FIELDS; empty without samples).
-    The friction's direction is the kernel's where the trajectory carries it, else the
-    direction of the stored friction force (a run read from an older format: 0 where there is
-    none; a rolling sample's direction is never used)."""
+def stored_samples(traj: Trajectory, plan: Plan) -> dict[str, NDArray[Any]]:
+    """A trajectory's samples as a segment stores them (empty without samples): STATE_FIELDS,
+    and DERIVED_FIELDS too when the state does not give them back bit for bit under ``plan``
+    (:func:`~bowlrec.archive.derived.given_samples`). The friction's direction is the kernel's
+    where the trajectory carries it, else the direction of the stored friction force (a run
+    read from an older format: 0 where there is none; a rolling sample's direction is never
+    used), and then the derived quantities are stored as given."""
     if not traj.n_samples:
         return {}
     out = {k: getattr(traj, k) for k in STATE_FIELDS if k != "friction_dir"}
@@ -228,8 +224,13 @@ def stored_samples(traj: Trajectory) -> dict[str, NDArray[Any]]:
     if direction is None:
         force = np.asarray(traj.friction_force_N, dtype=np.float64)[:, :2]
         size = np.hypot(force[:, 0], force[:, 1])[:, None]
-        direction = np.divide(force, size, out=np.zeros_like(force), where=size > 0)
+        out["friction_dir"] = np.divide(force, size, out=np.zeros_like(force), where=size > 0)
+        # a direction rebuilt from the force does not give the force back bit for bit: the
+        # derived quantities are stored as given, without deriving them to find out
+        out.update({k: np.ascontiguousarray(getattr(traj, k)) for k in DERIVED_FIELDS})
+        return out
     out["friction_dir"] = np.ascontiguousarray(direction, dtype=np.float64)
+    out.update(given_samples(out, traj, plan))
     return out
 
 
@@ -382,13 +383,14 @@ def sample_parts(
     samples: dict[str, NDArray[Any]], offsets: NDArray[np.int64], state: bool
 ) -> list[tuple[NDArray[Any], NDArray[np.int64]]]:
     """The digest parts of a segment's samples (rows ``offsets``): from 3.0 on (``state``) one
-    part per STATE_FIELDS dataset, its bytes as stored (no copy); before, one part of the
-    TRAJECTORY_FIELDS side by side per sample (:func:`row_matrix`)."""
+    part per STATE_FIELDS dataset, then one per DERIVED_FIELDS dataset the segment stores, its
+    bytes as stored (no copy); before, one part of the TRAJECTORY_FIELDS side by side per
+    sample (:func:`row_matrix`)."""
     rows = int(offsets[-1])
     if not state:
         return [(row_matrix(sample_columns(samples), rows), offsets)]
     out = []
-    for k in STATE_FIELDS:
+    for k in STATE_FIELDS + tuple(k for k in DERIVED_FIELDS if k in samples):
         arr = np.ascontiguousarray(samples[k]) if k in samples else np.zeros((rows, 0), np.uint8)
         width = int(np.prod(arr.shape[1:], dtype=np.int64)) * arr.dtype.itemsize
         out.append((arr.reshape(-1).view(np.uint8).reshape(rows, width), offsets))

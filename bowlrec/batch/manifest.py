@@ -24,6 +24,7 @@ it found archived as ``skipped``). Nothing here touches a segment or the index.
 from __future__ import annotations
 
 import builtins
+import contextlib
 import fcntl
 import json
 import re
@@ -103,11 +104,14 @@ class RecordedJob(BaseModel):
 
 
 class _Recorder:
-    """Records one batch: the spec and the record at the start, progress, the end."""
+    """Records one batch: the spec and the record at the start, progress, the end.
+
+    The record is for the web app's listing only: a write that fails (a full disk, a
+    read-only ``jobs`` directory) turns recording off for the rest of the batch, which goes on
+    (its own writes fail or not on their own); :attr:`error` says why it stopped."""
 
     def __init__(self, root: Path, job: JobSpec) -> None:
         self.dir = root / CLI_JOBS_DIR
-        self.dir.mkdir(parents=True, exist_ok=True)
         now = _now()
         self.rec = RecordedJob(
             job_id=uuid.uuid4().hex[:16], name=job.name, status="running", total=job.count(),
@@ -115,17 +119,47 @@ class _Recorder:
         )  # fmt: skip
         base = self.dir / self.rec.job_id
         self.runs_path = base.with_suffix(".runs")
-        # the lock first: a reader never sees a running record nobody holds
-        self._lock: IO[str] | None = open(base.with_suffix(".lock"), "a")  # noqa: SIM115
-        fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        with atomic_path(base.with_suffix(".spec.json")) as tmp:
-            tmp.write_text(json.dumps({"job": job.model_dump(mode="json", by_alias=True)}))
+        #: why the job is not (or no longer) recorded; None while it is
+        self.error: OSError | None = None
+        self._lock: IO[str] | None = None
         self._last = 0.0
-        self._persist(durable=True)
+        try:
+            self.dir.mkdir(parents=True, exist_ok=True)
+            # the lock first: a reader never sees a running record nobody holds
+            self._lock = open(base.with_suffix(".lock"), "a")  # noqa: SIM115
+            fcntl.flock(self._lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            with atomic_path(base.with_suffix(".spec.json")) as tmp:
+                tmp.write_text(json.dumps({"job": job.model_dump(mode="json", by_alias=True)}))
+            self._persist(durable=True)
+        except OSError as err:
+            self._stop(err)
+            for suffix in (".spec.json", ".lock"):  # nothing lists a job without its record
+                with contextlib.suppress(OSError):
+                    base.with_suffix(suffix).unlink(missing_ok=True)
+
+    @property
+    def recording(self) -> bool:
+        return self.error is None
+
+    def _stop(self, err: OSError) -> None:
+        if self.error is None:
+            self.error = err
+        if self._lock is not None:
+            self._lock.close()  # releases the lock: a running record reads as interrupted
+            self._lock = None
 
     def _persist(self, durable: bool = False) -> None:
         with atomic_path(self.dir / f"{self.rec.job_id}.json", durable=durable) as tmp:
             tmp.write_text(self.rec.model_dump_json(exclude={"run_ids", "resumable"}, indent=1))
+
+    def _write(self, action: Callable[[], None]) -> None:
+        """``action`` (a write of the record's files) unless recording stopped; an OSError
+        stops it."""
+        if self.error is None:
+            try:
+                action()
+            except OSError as err:
+                self._stop(err)
 
     def progress(self, then: Callable[[BatchProgress], None] | None) -> Any:
         def update(p: BatchProgress) -> None:
@@ -134,7 +168,7 @@ class _Recorder:
             if time.monotonic() - self._last >= PERSIST_INTERVAL_S:
                 self._last = time.monotonic()
                 rec.updated_at = _now()
-                self._persist()
+                self._write(self._persist)
             if then is not None:
                 then(p)
 
@@ -150,8 +184,12 @@ class _Recorder:
                 for i, rid in zip(table.index.tolist(), table.run_id, strict=True)
                 if rid is not None
             ]
-            with open(self.runs_path, "a", encoding="ascii") as fh:
-                fh.write("".join(lines))
+
+            def append() -> None:
+                with open(self.runs_path, "a", encoding="ascii") as fh:
+                    fh.write("".join(lines))
+
+            self._write(append)
             room = MAX_FAILURES - len(self.rec.failures)
             for i, status in enumerate(table.status):
                 if status == "failed" and room > 0:
@@ -176,25 +214,31 @@ class _Recorder:
             c = result.counts
             rec.done, rec.failed, rec.skipped = c["ok"] + c["archived"], c["failed"], c["archived"]
         rec.status, rec.error, rec.updated_at = status, error, _now()
-        try:
-            self._persist(durable=True)
-        finally:
-            if self._lock is not None:
-                self._lock.close()  # releases the lock
-                self._lock = None
+        self._write(lambda: self._persist(durable=True))
+        if self._lock is not None:
+            self._lock.close()  # releases the lock
+            self._lock = None
 
 
-def run_recorded_job(job: JobSpec, archive: Archive | None, **options: Any) -> BatchResult:
+def run_recorded_job(
+    job: JobSpec,
+    archive: Archive | None,
+    *,
+    unrecorded: Callable[[OSError], None] | None = None,
+    **options: Any,
+) -> BatchResult:
     """:func:`~bowlrec.batch.runner.run_job` of ``job`` into ``archive``, recorded in
     ``ARCHIVE/jobs/cli/`` (module doc) so that the web app lists it; with no archive, just
     the run. ``options`` are run_job's (``progress`` and ``before_register`` are wrapped,
-    ``run_log`` set when not given)."""
+    ``run_log`` set when not given). When the record cannot be written, the batch runs on and
+    ``unrecorded`` is called with the error at the end."""
     if archive is None:
         return run_job(job, None, **options)
     rec = _Recorder(Path(archive.root), job)
-    options["progress"] = rec.progress(options.get("progress"))
-    options["before_register"] = rec.before_register(options.get("before_register"))
-    options.setdefault("run_log", rec.runs_path)
+    if rec.recording:
+        options["progress"] = rec.progress(options.get("progress"))
+        options["before_register"] = rec.before_register(options.get("before_register"))
+        options.setdefault("run_log", rec.runs_path)
     try:
         result = run_job(job, archive, **options)
     except KeyboardInterrupt:
@@ -209,6 +253,8 @@ def run_recorded_job(job: JobSpec, archive: Archive | None, **options: Any) -> B
         rec.finish("interrupted", result, "interrupted (Ctrl-C): rerun the job to do the rest")
     else:
         rec.finish("done", result)
+    if rec.error is not None and unrecorded is not None:
+        unrecorded(rec.error)
     return result
 
 

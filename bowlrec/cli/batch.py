@@ -167,6 +167,7 @@ def batch(
     failures = _FirstFailure(writer.write)
     last = _LastProgress()
     compiling = bool(first_use("batch")) if scheduler is None else False
+    unrecorded: list[OSError] = []  # why the web app's Jobs page cannot list this batch
     try:
         with _progress(show, spec.count(), last, compiling) as update:
             result = run_recorded_job(
@@ -181,6 +182,7 @@ def batch(
                 replay_dir=replay_dir if replay_dir is not None else _replay_default(prefix),
                 worker_writes=worker_writes,
                 sink=failures,
+                unrecorded=unrecorded.append,
             )
     except KeyboardInterrupt:  # the second Ctrl-C (the handler above)
         writer.abort()
@@ -224,6 +226,14 @@ def batch(
         + f" ({result.simulated} simulated in {result.elapsed_s:.1f} s)",
         err=True,
     )
+    if unrecorded and result.error is None:  # else the error line says why
+        cause = unrecorded[0]
+        why = (
+            f"{cause.strerror}: {cause.filename}"
+            if cause.strerror and cause.filename
+            else str(cause)
+        )
+        warn(f"the web app's Jobs page will not list this batch ({why})")
     if failures.error is not None and result.error is None:  # else the error line says why
         from bowlrec.spec.errors import printable
 

@@ -164,7 +164,7 @@ def solve(
         summary=summary,
         torques_Nm=torque_arrays,
         observations=_observations(obs[:nobs]),
-    )
+    ).mark_derived_from_state()
 
 
 def sample_arrays(

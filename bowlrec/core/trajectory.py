@@ -100,6 +100,30 @@ class Observation:
     omega_radps: tuple[float, float, float]
 
 
+#: the per-sample quantities :func:`bowlrec.core.solver.sample_arrays` derives from the state
+#: (the other per-sample fields and ``friction_dir``)
+DERIVED_SAMPLE_FIELDS = (
+    "alpha_radps2",
+    "energy_J",
+    "friction_force_N",
+    "normal_force_N",
+    "slip_mps",
+)
+#: the per-sample state the kernel records (with ``friction_dir`` it gives the rest), sorted
+STATE_SAMPLE_FIELDS = (
+    "friction_dir",
+    "mu",
+    "omega_radps",
+    "phase",
+    "position_m",
+    "quaternion_wxyz",
+    "t_s",
+    "velocity_mps",
+)
+#: the per-sample fields a derivation mark covers (the state and what it gives)
+_MARKED_FIELDS = (*DERIVED_SAMPLE_FIELDS, *STATE_SAMPLE_FIELDS)
+
+
 @dataclass(repr=False)
 class Trajectory:
     """Samples of one delivery (lane frame, SI units) plus its events and summary.
@@ -136,6 +160,31 @@ class Trajectory:
     #: other per-sample quantity again (:func:`bowlrec.core.solver.sample_arrays`); None when
     #: not known (e.g. a run file's trajectory)
     friction_dir: NDArray[np.float64] | None = None
+
+    def mark_derived_from_state(self) -> Trajectory:
+        """Record that the derived per-sample arrays (:data:`DERIVED_SAMPLE_FIELDS`) are exactly
+        what :func:`bowlrec.core.solver.sample_arrays` gives from the state (the kernel or a
+        reader computed them so): the per-sample arrays become read-only, and
+        :meth:`derived_from_state` says so while the trajectory holds these same arrays (a
+        trajectory made with ``dataclasses.replace`` is not marked). Returns the trajectory."""
+        if self.friction_dir is None:
+            return self
+        arrays = tuple(getattr(self, k) for k in _MARKED_FIELDS)
+        for arr in arrays:
+            arr.flags.writeable = False
+        # an instance attribute, not a field: the fields stay the trajectory's data
+        self.__dict__["_marked"] = arrays
+        return self
+
+    def derived_from_state(self) -> bool:
+        """Whether the derived per-sample arrays are known to be exactly what the state gives
+        (:meth:`mark_derived_from_state`): an archive then stores the state alone without
+        deriving them again to compare."""
+        marked = self.__dict__.get("_marked")
+        return marked is not None and all(
+            getattr(self, k) is arr and not arr.flags.writeable
+            for k, arr in zip(_MARKED_FIELDS, marked, strict=True)
+        )
 
     @property
     def n_samples(self) -> int:
