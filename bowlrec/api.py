@@ -40,13 +40,11 @@ def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
     asks for pin action, else as it is. MissingExtraError without the ``pins`` extra."""
     if plan.pins is None:
         return trajectory
-    import dataclasses
-
     from .pins.engine import require_mujoco
     from .pins.outcome import pin_outcome
 
     require_mujoco()
-    return dataclasses.replace(trajectory, pins=pin_outcome(plan, trajectory))
+    return trajectory.replaced(pins=pin_outcome(plan, trajectory))
 
 
 def simulate_into(

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from helpers.archive_contract import change_value_in_place, seal
 
+import bowlrec
 from bowlrec.archive import Archive, run_id
 from bowlrec.archive.migrate import migrate
 from bowlrec.archive.segment_format import STATE_FIELDS, TRAJECTORY_FIELDS
@@ -161,12 +162,18 @@ def test_derived_quantities_the_state_does_not_give_are_stored_as_given(tmp_path
 def test_a_kernel_trajectory_is_marked_derived_until_its_arrays_change() -> None:
     """The kernel's trajectory is marked as derived from its state (the writer then stores the
     state without deriving again): its per-sample arrays are read-only, and the mark is gone
-    once an array is replaced or the trajectory is copied with dataclasses.replace."""
+    once an array is replaced or the trajectory is copied with dataclasses.replace
+    (Trajectory.replaced keeps it when the samples stay)."""
     plan = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.01}}).resolve()
     traj = solve(plan)
     assert traj.derived_from_state()
     with pytest.raises(ValueError, match="read-only"):
         traj.energy_J[0] = 0.0
     assert not dataclasses.replace(traj).derived_from_state()
+    assert traj.replaced(summary=traj.summary).derived_from_state()  # the samples unchanged
+    assert not traj.replaced(energy_J=traj.energy_J.copy()).derived_from_state()
+    assert bowlrec.simulate(
+        Scene.model_validate({"options": {"record": "rate"}})
+    ).derived_from_state()
     traj.energy_J = traj.energy_J.copy()
     assert not traj.derived_from_state()

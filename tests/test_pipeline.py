@@ -312,6 +312,7 @@ def test_fast_scene_json_is_the_general_paths_text() -> None:
         {
             "base": case16(),
             "record": "trajectory",
+            "formats": ["mcap"],
             "sweep": {"kind": "grid", "axes": {"delivery.speed_mps": [7.0, 8.0]}},
         },
         {"base": case16()},
@@ -323,7 +324,7 @@ def test_fast_scene_json_is_the_general_paths_text() -> None:
         "grid+points",
         "mass",
         "speed+mass",
-        "trajectory",
+        "trajectory-with-replays",
         "no-sweep",
     ],
 )
@@ -517,6 +518,49 @@ def test_fast_and_general_paths_agree(monkeypatch: pytest.MonkeyPatch) -> None:
         assert [(r["status"], r["error"]) for r in f.rows] == [
             (r["status"], r["error"]) for r in g.rows
         ]
+
+
+def test_a_recorded_delivery_sweep_archives_what_the_general_path_archives(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sweep of the delivery that records samples is prepared the fast way (no Scene per
+    run) and archives the runs the general path archives: the same run IDs, scene JSON,
+    samples (bit for bit), events and summaries."""
+    job = JobSpec.model_validate(
+        {
+            "base": case16(),
+            "record": "trajectory",
+            "sweep": [
+                {"kind": "grid", "axes": {"delivery.speed_mps": [6.5, 8.0, 8.0]}},
+                {"kind": "random", "n": 3, "seed": 2, "axes": RANGES},
+            ],
+        }
+    )
+    assert job_context(job).fast_paths is not None
+
+    def archived(root: Path) -> dict[str, Any]:
+        archive = Archive(root)
+        result = run_job(job, archive, workers=0, chunk_size=4)
+        assert result.counts["ok"] + result.counts["failed"] == 6
+        out = {}
+        for row in archive.list_runs(limit=None):
+            stored = archive.load(row["run_id"])
+            arrays = {k: v.tobytes() for k, v in stored.trajectory.arrays().items()}
+            out[row["run_id"]] = (
+                stored.attrs["scene_json"],
+                arrays,
+                stored.trajectory.events,
+                stored.trajectory.summary,
+                row["solver"],
+                row["speed_mps"],
+            )
+        return out
+
+    fast = archived(tmp_path / "fast")
+    _force_general(monkeypatch)
+    assert job_context(job).fast_paths is None
+    general = archived(tmp_path / "general")
+    assert len(fast) >= 4 and fast == general
 
 
 def test_fast_and_general_paths_give_the_same_parameter_columns(

@@ -236,8 +236,11 @@ def test_a_run_page_shows_summary_report_figure_and_downloads(
     assert "entry angle (deg)" in page.locator("#report").inner_text()
     page.locator("#run-figure").scroll_into_view_if_needed()
     _loaded(page, "#run-figure")
-    for link in page.locator(".downloads a[download]").all():
-        href = link.get_attribute("href")
+    hrefs = page.locator(".downloads a[download]").evaluate_all(
+        "links => links.map(a => a.getAttribute('href'))"
+    )  # read at once: the requests below may take long on a loaded machine
+    assert len(hrefs) == 7, hrefs
+    for href in hrefs:
         answer = page.request.get(href)
         assert answer.status == 200, (href, answer.status, answer.text()[:200])
         assert len(answer.body()) > 100

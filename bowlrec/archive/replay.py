@@ -62,13 +62,12 @@ def _with_pins(plan: Plan, trajectory: Any) -> Any:
     """``trajectory`` with its pins run again when ``plan`` asks for pin action."""
     if plan.pins is None:
         return trajectory
-    from dataclasses import replace
 
     from bowlrec.pins.engine import require_mujoco
     from bowlrec.pins.outcome import pin_outcome
 
     require_mujoco()
-    return replace(trajectory, pins=pin_outcome(plan, trajectory))
+    return trajectory.replaced(pins=pin_outcome(plan, trajectory))
 
 
 def rerecord_is_exact(plan: Plan) -> bool:

@@ -175,15 +175,19 @@ class RunRecord:
         pattern: str,
         created_at_ns: int | None = None,
         records: dict[str, dict[str, NDArray[Any]]] | None = None,
+        scene_json: bytes | None = None,
     ) -> RunRecord:
         """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set;
-        ``records``: its per-run record groups (see :attr:`RunRecord.records`)."""
+        ``records``: its per-run record groups (see :attr:`RunRecord.records`); ``scene_json``:
+        the run's scene as ``run.scene_json()`` writes it, when the caller has it already (a
+        delivery sweep prepares it without a Scene per run: ``run.scene`` is then its base
+        scene, which gives the fields a sweep does not vary: name, record, pins)."""
         assert run.run_id is not None, "a run needs its content ID before it is archived"
         plan, traj = run.plan, run.trajectory
         v, w = plan.velocity0_mps, plan.omega0_radps
         return cls(
             run_id=run.run_id,
-            scene_json=run.scene_json().encode(),
+            scene_json=run.scene_json().encode() if scene_json is None else scene_json,
             summary=traj.summary,
             name=run.scene.name,
             ball_ref=ball_ref,

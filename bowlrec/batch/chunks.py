@@ -209,6 +209,8 @@ def _run_chunk(task: ChunkTask) -> ChunkResult:
     archive = _archive(task.target.root) if writes and task.target is not None else None
     if ctx.fast_paths is not None:
         index = np.arange(task.start, min(task.stop, ctx.job.count()), dtype=np.int64)
+        if ctx.job.record != "summary":
+            return _run_fast_recorded(ctx, task, index, archive)
         return _run_fast(ctx, task, index, archive)
     points = ctx.job.points(task.start, task.stop)
     index = np.fromiter((p.index for p in points), dtype=np.int64, count=len(points))
@@ -344,17 +346,7 @@ def _run_fast(
     assert ctx.fast_paths is not None
     columns = ctx.job.columns(task.start, task.stop, ctx.fast_paths)
     chunk = fast.prepare(index, columns, scenes=False)  # a segment stores base and values
-    table = ChunkTable.empty(index, dict(chunk.params))
-    table.run_id = list(chunk.run_ids)
-    result = ChunkResult(task.start, task.stop, table)
-    archived = _archived_rows(archive, chunk.run_ids)
-    first: dict[str, int] = {}
-    for i, rid in enumerate(chunk.run_ids):
-        if rid in archived:
-            table.status[i] = "archived"
-            table.set_metrics(i, archived[rid])
-        else:
-            first.setdefault(rid, i)
+    table, result, first = _fast_table(task, chunk, archive)
     todo = np.fromiter(first.values(), dtype=np.int64, count=len(first))
     if todo.size:
         packed = take(chunk.packed, todo)
@@ -366,6 +358,78 @@ def _run_fast(
             _store_fast(ctx, task, fast, chunk, todo[ok], cols, raw, packed, archive, result, ok)
     _copy_duplicates(table, chunk.run_ids, first)
     _fail_unwritten(result)
+    return result
+
+
+def _fast_table(
+    task: ChunkTask, chunk: Any, archive: Archive | None
+) -> tuple[ChunkTable, ChunkResult, dict[str, int]]:
+    """A fast chunk's table and result, the runs found archived settled; the first row of
+    each run ID still to simulate."""
+    table = ChunkTable.empty(chunk.index, dict(chunk.params))
+    table.run_id = list(chunk.run_ids)
+    result = ChunkResult(task.start, task.stop, table)
+    archived = _archived_rows(archive, chunk.run_ids)
+    first: dict[str, int] = {}
+    for i, rid in enumerate(chunk.run_ids):
+        if rid in archived:
+            table.status[i] = "archived"
+            table.set_metrics(i, archived[rid])
+        else:
+            first.setdefault(rid, i)
+    return table, result, first
+
+
+def _run_fast_recorded(
+    ctx: JobContext,
+    task: ChunkTask,
+    index: np.ndarray,
+    archive: Archive | None,
+) -> ChunkResult:
+    """A chunk of a delivery sweep that records samples: prepared column by column (no Scene
+    per run: the base scene's Plan with each run's velocity and spin, its scene JSON from the
+    sweep's template), each run simulated on its own. The runs and their records are the ones
+    the general path makes (tests/test_pipeline.py compares them)."""
+    from bowlrec.core.arguments import use_closed_form
+    from bowlrec.core.solver import run_plan
+
+    fast = _fast(ctx)
+    assert ctx.fast_paths is not None
+    columns = ctx.job.columns(task.start, task.stop, ctx.fast_paths)
+    chunk = fast.prepare(index, columns)
+    table, result, first = _fast_table(task, chunk, archive)
+    store = _Store(archive, task.target, result, ctx.job.samples)
+    scene = fast.scene
+    sha = ball_sha(scene.ball)
+    ball_ref = ctx.base_ref or ctx.ball_refs.get(sha, "")
+    pattern = pattern_label(scene)
+    for i in first.values():
+        plan = chunk.plan(i, fast.plan)
+        start = time.perf_counter()
+        try:
+            traj = run_plan(plan)
+        except Exception as err:  # a failing scene is a row, never a crashed batch
+            table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
+            continue
+        wall = time.perf_counter() - start
+        result.simulated += 1
+        result.simulate_s += wall
+        if not _settle_row(table, i, traj.summary) or task.target is None:
+            continue
+        store.add(
+            RunRecord.from_run(
+                RunData(scene, plan, traj, chunk.run_ids[i]),
+                wall_time_s=wall,
+                ball_ref=ball_ref,
+                solver="closed_form" if use_closed_form(plan) else "integrator",
+                ball_sha=sha,
+                pattern=pattern,
+                scene_json=chunk.scene_json[i],
+            )
+        )
+    _copy_duplicates(table, chunk.run_ids, first)
+    store.finish()
+    _fail_unwritten(result, store.sealed)
     return result
 
 

@@ -314,7 +314,10 @@ def job_context(
     )
     fast = (
         tuple(dict.fromkeys(paths))
-        if summary and numeric and not pins and FastSweep.applies(base.bowler, paths, has_lists)
+        if (summary or not job.formats)  # replay files are written from a Scene per run
+        and numeric
+        and not pins
+        and FastSweep.applies(base.bowler, paths, has_lists)
         else None
     )
     data = copy.deepcopy(base.data)

@@ -22,7 +22,7 @@ def described(trajectory: Trajectory, plan: Plan) -> Trajectory:
     limits); samples and events are shared, not copied."""
     s = trajectory.summary
     message = outcome_message(s.outcome, s.time_s, s.x_end_m, plan.max_time_s, plan.max_steps)
-    return replace(trajectory, summary=replace(s, message=message))
+    return trajectory.replaced(summary=replace(s, message=message))
 
 
 def outcome_message(

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -185,6 +185,14 @@ class Trajectory:
             getattr(self, k) is arr and not arr.flags.writeable
             for k, arr in zip(_MARKED_FIELDS, marked, strict=True)
         )
+
+    def replaced(self, **changes: Any) -> Trajectory:
+        """``dataclasses.replace(self, **changes)``, marked as derived from its state when this
+        trajectory is and no per-sample field changes (e.g. a new summary or pins)."""
+        out = replace(self, **changes)
+        if self.derived_from_state() and not set(changes) & set(_MARKED_FIELDS):
+            out.mark_derived_from_state()
+        return out
 
     @property
     def n_samples(self) -> int:
