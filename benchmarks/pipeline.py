@@ -268,21 +268,26 @@ def recorded_costs(n: int = 200) -> dict[str, float]:
     loaded machine inflates it less than wall time), for the first ``samples`` filter of
     :data:`RECORDED_FILTERS` and each other: what a worker spends on a run of the recorded
     job, and what the parent's index registration costs."""
+    import numpy as np
+
     from bowlrec.archive import Archive, SegmentBuilder
     from bowlrec.archive.ball_files import ball_sha
     from bowlrec.archive.segment import RunRecord
     from bowlrec.archive.segment_file import write_segment
     from bowlrec.archive.writing import pattern_label
     from bowlrec.batch import job_context
-    from bowlrec.batch.job import prepare_point
-    from bowlrec.core.solver import kernel_call, solve
+    from bowlrec.batch.fastprep import FastSweep
+    from bowlrec.core.solver import kernel_call, solve, solve_state
     from bowlrec.provenance import environment
     from bowlrec.sinks.common import RunData
+    from bowlrec.spec import Scene
 
     job = _job("case16-recorded.json", n)
     ctx = job_context(job, base_dir=JOBS)
-    points = job.points(0, n)
-    solve(prepare_point(ctx, points[0]).plan)  # warm
+    assert ctx.fast_paths is not None  # a delivery sweep: the fast preparation, as the job
+    fast = FastSweep(Scene.model_validate(ctx.base_data), ctx.fast_paths)  # once per worker
+    columns = job.columns(0, n, ctx.fast_paths)
+    solve(fast.plan)  # warm
     out: dict[str, float] = {}
 
     def clock(key: str, t0: float) -> float:
@@ -291,26 +296,30 @@ def recorded_costs(n: int = 200) -> dict[str, float]:
         return now
 
     t = time.process_time()
-    preps = [prepare_point(ctx, p) for p in points]
+    chunk = fast.prepare(np.arange(n, dtype=np.int64), columns)
+    plans = [chunk.plan(i, fast.plan) for i in range(n)]
     t = clock("prepare", t)
-    for p in preps:
-        fn, args = kernel_call(p.plan)
+    for plan in plans:
+        fn, args = kernel_call(plan)
         fn(*args)
     t = clock("kernel", t)
-    trajs = [solve(p.plan) for p in preps]
+    solved = [solve_state(plan) for plan in plans]  # as the job's workers do
     t = clock("solve", t)
     out["derive"] = out.pop("solve") - out["kernel"]
     t = time.process_time()
+    sha, pattern = ball_sha(fast.scene.ball), pattern_label(fast.scene)
     records = [
         RunRecord.from_run(
-            RunData(p.scene, p.plan, tr, p.run_id),
+            RunData(fast.scene, plan, tr, chunk.run_ids[i]),
             wall_time_s=0.0,
             ball_ref="",
             solver="integrator",
-            ball_sha=ball_sha(p.scene.ball),
-            pattern=pattern_label(p.scene),
+            ball_sha=sha,
+            pattern=pattern,
+            scene_json=chunk.scene_json[i],
+            samples=state,
         )
-        for p, tr in zip(preps, trajs, strict=True)
+        for i, (plan, (tr, state)) in enumerate(zip(plans, solved, strict=True))
     ]
     t = clock("record", t)
     builder = SegmentBuilder(environment())
@@ -754,9 +763,9 @@ def markdown(d: dict[str, Any]) -> str:
     c = d.get("recorded_costs_ms")
     if c:
         stages = [
-            ("prepare (validate the scene, resolve, run ID)", c["prepare"]),
+            ("prepare (the sweep's fast preparation: Plan, scene JSON, run ID)", c["prepare"]),
             ("kernel with dense output at 1 ms", c["kernel"]),
-            ("solve beyond the kernel (derived quantities, arrays, summary)", c["derive"]),
+            ("after the kernel: events, summary, state arrays (`solve_state`)", c["derive"]),
             ("segment record of the run (scene JSON, state arrays)", c["record"]),
             ("segment columns (concatenation, digests)", c["columns"]),
             *((f"HDF5 write, samples {f} (no fsync)", c[f"write_{f}"]) for f in RECORDED_FILTERS),

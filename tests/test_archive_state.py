@@ -177,3 +177,23 @@ def test_a_kernel_trajectory_is_marked_derived_until_its_arrays_change() -> None
     ).derived_from_state()
     traj.energy_J = traj.energy_J.copy()
     assert not traj.derived_from_state()
+
+
+def test_solve_state_is_solve_without_the_derived_quantities() -> None:
+    """solve_state gives the state solve gives, bit for bit, and run_plan's summary and events,
+    without deriving the rest; a plan recording per-term torques is refused (they are derived
+    from the state)."""
+    from bowlrec.core.solver import run_plan, solve_state
+
+    plan = Scene.model_validate({"options": {"record": "rate", "record_dt_s": 0.005}}).resolve()
+    traj, state = solve_state(plan)
+    full = run_plan(plan)
+    assert traj.n_samples == 0 and set(state) == set(STATE_FIELDS)
+    assert traj.summary == full.summary and traj.events == full.events
+    assert full.friction_dir is not None
+    for k, arr in state.items():
+        want = full.friction_dir if k == "friction_dir" else getattr(full, k)
+        assert arr.dtype == want.dtype and arr.tobytes() == want.tobytes(), k
+    terms = Scene.model_validate({"options": {"record": "rate", "record_terms": True}})
+    with pytest.raises(ValueError, match="torques"):
+        solve_state(terms.resolve())

@@ -176,12 +176,15 @@ class RunRecord:
         created_at_ns: int | None = None,
         records: dict[str, dict[str, NDArray[Any]]] | None = None,
         scene_json: bytes | None = None,
+        samples: dict[str, NDArray[Any]] | None = None,
     ) -> RunRecord:
         """A finished run (scene, plan, trajectory) as a record; ``run.run_id`` must be set;
         ``records``: its per-run record groups (see :attr:`RunRecord.records`); ``scene_json``:
         the run's scene as ``run.scene_json()`` writes it, when the caller has it already (a
         delivery sweep prepares it without a Scene per run: ``run.scene`` is then its base
-        scene, which gives the fields a sweep does not vary: name, record, pins)."""
+        scene, which gives the fields a sweep does not vary: name, record, pins); ``samples``:
+        the run's recorded state when the trajectory carries none
+        (:func:`bowlrec.core.solver.solve_state`: the kernel's, stored as it is)."""
         assert run.run_id is not None, "a run needs its content ID before it is archived"
         plan, traj = run.plan, run.trajectory
         v, w = plan.velocity0_mps, plan.omega0_radps
@@ -207,7 +210,7 @@ class RunRecord:
             created_at_ns=(time.time_ns() if created_at_ns is None else created_at_ns)
             // 1000
             * 1000,
-            trajectory=stored_samples(traj, plan),
+            trajectory=stored_samples(traj, plan) if samples is None else samples,
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records=check_records(run.run_id, {**_pin_records(run), **(records or {})}),

@@ -389,9 +389,11 @@ def _run_fast_recorded(
     """A chunk of a delivery sweep that records samples: prepared column by column (no Scene
     per run: the base scene's Plan with each run's velocity and spin, its scene JSON from the
     sweep's template), each run simulated on its own. The runs and their records are the ones
-    the general path makes (tests/test_pipeline.py compares them)."""
+    the general path makes (tests/test_pipeline.py compares them). The archive stores a run's
+    state only, so the forces, slip, energy and alpha are not derived here
+    (:func:`~bowlrec.core.solver.solve_state`) unless the run records per-term torques."""
     from bowlrec.core.arguments import use_closed_form
-    from bowlrec.core.solver import run_plan
+    from bowlrec.core.solver import run_plan, solve_state
 
     fast = _fast(ctx)
     assert ctx.fast_paths is not None
@@ -406,8 +408,12 @@ def _run_fast_recorded(
     for i in first.values():
         plan = chunk.plan(i, fast.plan)
         start = time.perf_counter()
+        samples = None
         try:
-            traj = run_plan(plan)
+            if plan.record_terms:
+                traj = run_plan(plan)
+            else:
+                traj, samples = solve_state(plan)
         except Exception as err:  # a failing scene is a row, never a crashed batch
             table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
             continue
@@ -425,6 +431,7 @@ def _run_fast_recorded(
                 ball_sha=sha,
                 pattern=pattern,
                 scene_json=chunk.scene_json[i],
+                samples=samples,
             )
         )
     _copy_duplicates(table, chunk.run_ids, first)

@@ -49,7 +49,7 @@ from .plan import Plan
 from .summary import first_slide_x, summary_columns
 from .summary import released_rolling as rolling_at_release
 from .terms import EXTERNAL_TERM, INERTIA_TERMS, TORQUE_TERMS
-from .trajectory import Event, Observation, Summary, Trajectory
+from .trajectory import Event, Observation, Summary, Trajectory, summary_trajectory
 
 # the kernels this module calls load from numba's cache without the full refresh of numba's
 # target context (bowlrec.core._kernel_cache.load_lean): what a fresh process's first delivery
@@ -133,6 +133,34 @@ def solve(
     observed as the path reaches them (stations at or behind the release point are not), and
     ``turns``: also where it turns across the lane (v_y = 0); both land in
     ``Trajectory.observations`` and change no other result (:mod:`bowlrec.core.observe`)."""
+    events, summary, rec, par, observations = _run(plan, method, stations_m, turns)
+    arrays, torque_arrays = sample_arrays(rec, par, plan.mass_kg, bool(plan.record_terms), plan)
+    return Trajectory(
+        **arrays,
+        events=events,
+        summary=summary,
+        torques_Nm=torque_arrays,
+        observations=observations,
+    ).mark_derived_from_state()
+
+
+def solve_state(plan: Plan) -> tuple[Trajectory, dict[str, np.ndarray]]:
+    """:func:`run_plan` without deriving the forces, slip, energy and alpha of the samples:
+    the run's events and summary (a Trajectory without samples, its message set) and its
+    recorded state (:func:`state_arrays`, bit for bit the arrays :func:`solve` gives): what an
+    archive stores of a run that records samples (segment format 3.0). A plan recording
+    per-term torques derives them: it needs :func:`run_plan`."""
+    if plan.record_terms:
+        raise ValueError("a plan recording per-term torques needs run_plan()")
+    events, summary, rec, _, _ = _run(plan, "auto", (), False)
+    return described(summary_trajectory(events, summary), plan), state_arrays(rec)
+
+
+def _run(
+    plan: Plan, method: str, stations_m: Sequence[float], turns: bool
+) -> tuple[list[Event], Summary, np.ndarray, np.ndarray, list[Observation]]:
+    """The kernel run on a plan: its events, summary, sample rows, kernel parameters and
+    observations."""
     fn, args = kernel_call(plan, method, stations_m, turns)
     rec, nrec, ev, nev, status, t_end, y_end, nsteps, nfev, obs, nobs = fn(*args)
     par, y0, x_edges, y_edges, mu_grid = args[:5]  # the kernel does not change them
@@ -157,14 +185,29 @@ def solve(
         rolling_at_release(y0, par, x_edges, y_edges, mu_grid, float(plan.rtol), plan.g_mps2)
     )
     summary = summarize(y0, slide_x, rolling, int(status), float(t_end), y_end, nev, nsteps, nfev)
-    arrays, torque_arrays = sample_arrays(rec, par, plan.mass_kg, bool(plan.record_terms), plan)
-    return Trajectory(
-        **arrays,
-        events=events,
-        summary=summary,
-        torques_Nm=torque_arrays,
-        observations=_observations(obs[:nobs]),
-    ).mark_derived_from_state()
+    return events, summary, rec, par, _observations(obs[:nobs])
+
+
+def state_arrays(rec: np.ndarray) -> dict[str, np.ndarray]:
+    """The recorded state of a kernel's sample rows (``rec``) as the trajectory's arrays:
+    ``t_s``, ``position_m`` and ``velocity_mps`` (z = 0), ``quaternion_wxyz``,
+    ``omega_radps``, ``phase`` (int8, 1 rolling), ``mu`` and ``friction_dir`` (each a new
+    array)."""
+    n = rec.shape[0]
+    position = np.zeros((n, 3))
+    position[:, :2] = rec[:, COL_STATE + S_X : COL_STATE + S_X + 2]
+    velocity = np.zeros((n, 3))
+    velocity[:, :2] = rec[:, COL_STATE + S_VX : COL_STATE + S_VX + 2]
+    return {
+        "t_s": rec[:, COL_T].copy(),
+        "position_m": position,
+        "velocity_mps": velocity,
+        "quaternion_wxyz": rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4].copy(),
+        "omega_radps": rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3].copy(),
+        "phase": (rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
+        "mu": rec[:, COL_MU].copy(),
+        "friction_dir": rec[:, COL_UX : COL_UY + 1].copy(),
+    }
 
 
 def sample_arrays(
@@ -179,10 +222,6 @@ def sample_arrays(
     derive = derive_samples if rec.shape[0] else derive_samples.py_func
     normal, friction, slips, energy, alpha, inertia_alpha, torques = derive(rec, par, record_terms)
     n = rec.shape[0]
-    position = np.zeros((n, 3))
-    position[:, :2] = rec[:, COL_STATE + S_X : COL_STATE + S_X + 2]
-    velocity = np.zeros((n, 3))
-    velocity[:, :2] = rec[:, COL_STATE + S_VX : COL_STATE + S_VX + 2]
     slip3 = np.zeros((n, 3))
     slip3[:, :2] = slips
     fric3 = np.zeros((n, 3))
@@ -195,21 +234,14 @@ def sample_arrays(
             torque_arrays[name] = torques[:, j, :] * mass
         if plan is not None and plan.external_terms:
             torque_arrays[EXTERNAL_TERM] = torques[:, len(TORQUE_TERMS), :] * mass
-    arrays = {
-        "t_s": rec[:, COL_T].copy(),
-        "position_m": position,
-        "velocity_mps": velocity,
-        "quaternion_wxyz": rec[:, COL_STATE + S_QW : COL_STATE + S_QW + 4].copy(),
-        "omega_radps": rec[:, COL_STATE + S_WX : COL_STATE + S_WX + 3].copy(),
-        "phase": (rec[:, COL_PHASE] == PHASE_ROLL).astype(np.int8),
-        "mu": rec[:, COL_MU].copy(),
-        "normal_force_N": normal * mass,
-        "friction_force_N": fric3,
-        "slip_mps": slip3,
-        "energy_J": energy * mass,
-        "alpha_radps2": alpha,
-        "friction_dir": rec[:, COL_UX : COL_UY + 1].copy(),
-    }
+    arrays = state_arrays(rec)
+    arrays.update(
+        normal_force_N=normal * mass,
+        friction_force_N=fric3,
+        slip_mps=slip3,
+        energy_J=energy * mass,
+        alpha_radps2=alpha,
+    )
     return arrays, torque_arrays
 
 
