@@ -198,9 +198,9 @@ def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
     t0 = time.perf_counter()
     stored = run_chunk(ChunkTask(ctx, 6000, 6000 + n, target))
     with_archive = time.perf_counter() - t0
-    assert stored.segment is not None
+    assert len(stored.segments) == 1, stored.error
     t0 = time.perf_counter()
-    archive.register([stored.segment])
+    archive.register(stored.segments)
     register = time.perf_counter() - t0
     us = 1e6 / n
     kernel = (table_only.simulate_s + stored.simulate_s) / 2 * us
@@ -744,7 +744,7 @@ def markdown(d: dict[str, Any]) -> str:
         "just before each row. Samples filters: gzip = HDF5's shuffle + gzip level 4, lz4 = "
         "Blosc's byte shuffle + LZ4 level 5 (`hdf5plugin`), none = stored as they are."
         + (
-            f" Load average {_load(d['recorded_machine'])} (a shared machine)."
+            f" Load average {_loadavg(d['recorded_machine'])} (a shared machine)."
             if "recorded_machine" in d
             else ""
         ),
@@ -829,7 +829,7 @@ def measure_recorded(quick: bool, previous: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
-def _load(m: dict[str, Any]) -> str:
+def _loadavg(m: dict[str, Any]) -> str:
     return f"{m['loadavg_before'][0]:.2f} before, {m['loadavg_after'][0]:.2f} after"
 
 
