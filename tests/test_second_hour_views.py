@@ -159,7 +159,8 @@ def test_the_seeded_job_changes_the_hook() -> None:
 
 def test_a_command_line_batch_is_listed_on_the_jobs_page(tmp_path: Path, app_server: Any) -> None:
     """``bowlrec batch JOB`` records its job in the archive (``jobs/cli/``); the Jobs page
-    lists it beside the service's, its page shows it done and its results name its runs. A
+    lists it beside the service's (so does GET /jobs, with its source; the service refuses to
+    cancel or resume it), its page shows it done and its results name its runs. A
     record a killed batch left ``running`` reads as interrupted; a damaged one is listed as
     damaged and breaks nothing."""
     pytest.importorskip("fastapi")
@@ -203,3 +204,12 @@ def test_a_command_line_batch_is_listed_on_the_jobs_page(tmp_path: Path, app_ser
         events = client.get(f"/jobs/{job_id}/events").text
         assert '"status":"done"' in events and '"done":3' in events
         assert client.get("/jobs/" + "c" * 16 + "/events").status_code == 404
+        listed = {j["job_id"]: j for j in client.get("/jobs").json()}
+        assert listed[job_id]["source"] == "command line" and listed[job_id]["status"] == "done"
+        assert listed["a" * 16]["status"] == "interrupted"
+        one = client.get(f"/jobs/{job_id}").json()
+        assert one["source"] == "command line" and len(one["run_ids"]) == 3
+        for action in ("cancel", "resume"):
+            answer = client.post(f"/jobs/{job_id}/{action}")
+            assert answer.status_code == 409 and "command line" in answer.text, answer.text
+        assert client.post("/jobs/" + "c" * 16 + "/cancel").status_code == 404

@@ -60,6 +60,8 @@ from bowlrec.errors import (
     ConflictError,
     DamagedError,
     InputError,
+    JobConflictError,
+    JobNotFoundError,
     NotFoundError,
     SamplesRequiredError,
     StorageError,
@@ -431,26 +433,51 @@ def submit_job(
 
 
 @jobs.get("", response_model=list[JobStatus])
-def list_jobs(state: StateDep) -> list[JobStatus]:
-    """Every job of this archive, newest first."""
-    return state.jobs.list()
+def list_jobs(state: StateDep) -> list[Any]:
+    """Every job of this archive, newest first: the service's and the command line's
+    (``bowlrec batch`` into this archive; ``source`` says which)."""
+    from bowlrec.web.jobs import all_jobs
+
+    return all_jobs(state).list()
 
 
 @jobs.get("/{job_id}", response_model=JobStatus)
-def get_job(state: StateDep, job_id: str) -> JobStatus:
-    """Status and progress (done/failed/skipped of total), failures and the run IDs."""
-    return state.jobs.get(job_id)
+def get_job(state: StateDep, job_id: str) -> Any:
+    """Status and progress (done/failed/skipped of total), failures and the run IDs, of a
+    service job or a command-line one."""
+    from bowlrec.web.jobs import all_jobs
+
+    return all_jobs(state).get(job_id)
+
+
+def _own(state: _State, job_id: str, action: str) -> None:
+    """JobConflictError (409) for a command-line job: its batch runs in its own process."""
+    from bowlrec.web.jobs import all_jobs
+
+    try:
+        state.jobs.get(job_id, with_runs=False)
+    except JobNotFoundError:
+        if all_jobs(state).recorded.get(job_id, with_runs=False) is not None:
+            raise JobConflictError(
+                f"job {job_id} was run from the command line (bowlrec batch) in its own "
+                f"process: the service cannot {action} it"
+            ) from None
+        raise
 
 
 @jobs.post("/{job_id}/cancel", response_model=JobStatus, status_code=202)
 def cancel_job(state: StateDep, job_id: str) -> JobStatus:
-    """Stop a queued or running job after the scene in progress (finished runs stay)."""
+    """Stop a queued or running job after the scene in progress (finished runs stay); 409 for a
+    command-line job."""
+    _own(state, job_id, "cancel")
     return state.jobs.cancel(job_id)
 
 
 @jobs.post("/{job_id}/resume", response_model=JobStatus, status_code=202)
 def resume_job(state: StateDep, job_id: str) -> JobStatus:
-    """Queue an interrupted, cancelled or failed job again; archived runs are skipped."""
+    """Queue an interrupted, cancelled or failed job again; archived runs are skipped; 409
+    for a command-line job (rerun its batch command instead)."""
+    _own(state, job_id, "resume")
     return state.jobs.resume(job_id)
 
 

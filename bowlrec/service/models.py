@@ -221,6 +221,12 @@ class JobStatus(BaseModel):
         "simulation; GET /jobs/{id} only).",
     )
     failures: list[JobFailure] = Field(default_factory=list)
+    source: str = Field(
+        default="service",
+        description="Who runs the job: 'service' (POST /jobs) or 'command line' (bowlrec "
+        "batch into this archive, recorded in ARCHIVE/jobs/cli/; the service can neither "
+        "cancel nor resume it).",
+    )
 
 
 # -- spec validation ------------------------------------------------------------------------------
