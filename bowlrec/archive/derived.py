@@ -52,7 +52,7 @@ def derived_samples(state: dict[str, NDArray[Any]], scene_json: str) -> dict[str
 
 
 def given_samples(
-    state: dict[str, NDArray[Any]], traj: Trajectory, plan: Plan
+    state: dict[str, NDArray[Any]], traj: Trajectory, plan: Plan | None
 ) -> dict[str, NDArray[Any]]:
     """The trajectory's DERIVED_FIELDS arrays when its state does not give them back bit for
     bit under ``plan`` (the segment must store them as given), else an empty mapping (the
@@ -61,6 +61,7 @@ def given_samples(
     :meth:`~bowlrec.core.trajectory.Trajectory.derived_from_state`) is not derived again."""
     if traj.derived_from_state():
         return {}
+    assert plan is not None, "a trajectory not derived from its state needs its plan"
     try:
         again = plan_samples(state, plan)
     except (ValueError, KeyError, TypeError):

@@ -292,7 +292,10 @@ class StoredRecord:
             rtol=c["rtol"],
             wall_time_s=c["wall_time_s"],
             created_at_ns=c["created_at_ns"],
-            trajectory=stored_samples(traj, self.plan()) if traj.n_samples else {},
+            # a run derived on read needs no plan to be checked against (it is marked)
+            trajectory=stored_samples(
+                traj, None if traj.derived_from_state() or not traj.n_samples else self.plan()
+            ),
             torques=dict(traj.torques_Nm),
             events=[(e.kind, e.mu, e.phase, e.t_s, e.x_m, e.y_m) for e in traj.events],
             records={g: dict(d) for g, d in self.records.items()},

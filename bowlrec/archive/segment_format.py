@@ -217,13 +217,14 @@ class RunRecord:
         )
 
 
-def stored_samples(traj: Trajectory, plan: Plan) -> dict[str, NDArray[Any]]:
+def stored_samples(traj: Trajectory, plan: Plan | None) -> dict[str, NDArray[Any]]:
     """A trajectory's samples as a segment stores them (empty without samples): STATE_FIELDS,
     and DERIVED_FIELDS too when the state does not give them back bit for bit under ``plan``
     (:func:`~bowlrec.archive.derived.given_samples`). The friction's direction is the kernel's
     where the trajectory carries it, else the direction of the stored friction force (a run
     read from an older format: 0 where there is none; a rolling sample's direction is never
-    used), and then the derived quantities are stored as given."""
+    used), and then the derived quantities are stored as given. ``plan`` may be None only for
+    a trajectory without samples or one marked as derived from its state."""
     if not traj.n_samples:
         return {}
     out = {k: getattr(traj, k) for k in STATE_FIELDS if k != "friction_dir"}

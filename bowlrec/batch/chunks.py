@@ -16,10 +16,10 @@ import contextlib
 import os
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
     from bowlrec.archive import Archive, RunRecord, SegmentInfo, SummaryRuns
     from bowlrec.core.batch import PackedPlans
     from bowlrec.core.plan import Plan
-    from bowlrec.core.trajectory import Summary
+    from bowlrec.core.trajectory import Summary, Trajectory
 
     from .fastprep import FastSweep
     from .job import Point, PreparedRun
@@ -69,6 +69,7 @@ __all__ = [
     "run_chunk",
 ]
 
+_T = TypeVar("_T")
 #: outcomes that mean the model or the solver gave up: recorded as failures, not archived
 FAILED_OUTCOMES = frozenset({"airborne", "max_steps", "stalled"})
 #: recorded samples a worker holds before it seals them as a segment (about 130 bytes each)
@@ -393,7 +394,6 @@ def _run_fast_recorded(
     state only, so the forces, slip, energy and alpha are not derived here
     (:func:`~bowlrec.core.solver.solve_state`) unless the run records per-term torques."""
     from bowlrec.core.arguments import use_closed_form
-    from bowlrec.core.solver import run_plan, solve_state
 
     fast = _fast(ctx)
     assert ctx.fast_paths is not None
@@ -407,19 +407,10 @@ def _run_fast_recorded(
     pattern = pattern_label(scene)
     for i in first.values():
         plan = chunk.plan(i, fast.plan)
-        start = time.perf_counter()
-        samples = None
-        try:
-            if plan.record_terms:
-                traj = run_plan(plan)
-            else:
-                traj, samples = solve_state(plan)
-        except Exception as err:  # a failing scene is a row, never a crashed batch
-            table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
+        ran = _simulate_row(table, i, result, _archived_samples, plan)
+        if ran is None:
             continue
-        wall = time.perf_counter() - start
-        result.simulated += 1
-        result.simulate_s += wall
+        (traj, samples), wall = ran
         if not _settle_row(table, i, traj.summary) or task.target is None:
             continue
         store.add(
@@ -708,22 +699,45 @@ def _general_recorded(
     from bowlrec.core.arguments import use_closed_form
     from bowlrec.core.solver import run_plan
 
-    assert prep.plan is not None
-    start = time.perf_counter()
-    try:
-        traj = with_pins(prep.plan, run_plan(prep.plan))
-    except Exception as err:  # a failing scene is a row, never a crashed batch
-        table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
+    plan = prep.plan
+    assert plan is not None
+    ran = _simulate_row(table, i, result, lambda p: with_pins(p, run_plan(p)), plan)
+    if ran is None:
         return
-    wall = time.perf_counter() - start
-    result.simulated += 1
-    result.simulate_s += wall
+    traj, wall = ran
     summary = traj.summary
     if not _settle_row(table, i, summary, traj.pins) or task.target is None:
         return
-    solver = "closed_form" if use_closed_form(prep.plan) else "integrator"
+    solver = "closed_form" if use_closed_form(plan) else "integrator"
     store.add(_record(ctx, prep, summary, [], wall, solver, traj))
     _replays(ctx, prep, traj, result)
+
+
+def _simulate_row(
+    table: ChunkTable, i: int, result: ChunkResult, simulate: Callable[[Plan], _T], plan: Plan
+) -> tuple[_T, float] | None:
+    """``simulate(plan)`` for row ``i``, timed and counted in ``result``: its value and wall
+    time (s), or None when it raised (the row is then failed with the error: a failing scene
+    is a row, never a crashed batch)."""
+    start = time.perf_counter()
+    try:
+        value = simulate(plan)
+    except Exception as err:
+        table.status[i], table.error[i] = "failed", f"{type(err).__name__}: {err}"
+        return None
+    wall = time.perf_counter() - start
+    result.simulated += 1
+    result.simulate_s += wall
+    return value, wall
+
+
+def _archived_samples(plan: Plan) -> tuple[Trajectory, dict[str, np.ndarray] | None]:
+    """A recorded run as the archive takes it: its summary and events, and its state
+    (:func:`~bowlrec.core.solver.solve_state`); a run recording per-term torques whole, with
+    no separate state (they are derived)."""
+    from bowlrec.core.solver import run_plan, solve_state
+
+    return (run_plan(plan), None) if plan.record_terms else solve_state(plan)
 
 
 def _replays(ctx: JobContext, prep: PreparedRun, traj: Any, result: ChunkResult) -> None:
