@@ -38,13 +38,11 @@ def simulate(scene: SceneSource) -> Trajectory:
 def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
     """``trajectory`` with its pins (:func:`bowlrec.pins.outcome.pin_outcome`) when ``plan``
     asks for pin action, else as it is. MissingExtraError without the ``pins`` extra."""
-    if plan.pins is None:
+    if plan.pins is None:  # without importing the pin engine
         return trajectory
-    from .pins.engine import require_mujoco
-    from .pins.outcome import pin_outcome
+    from .pins.outcome import with_pins as pinned
 
-    require_mujoco()
-    return trajectory.replaced(pins=pin_outcome(plan, trajectory))
+    return pinned(plan, trajectory)
 
 
 def simulate_into(

@@ -51,23 +51,12 @@ def simulate_sampled(scene: Scene, record_dt_s: float = DEFAULT_RECORD_DT_S) -> 
     """Simulate :func:`sampled_scene` (``scene``, ``record_dt_s``) now (not archived): a run
     with samples, without run ID or provenance."""
     from bowlrec.core.solver import run_plan
+    from bowlrec.pins.outcome import with_pins
     from bowlrec.sinks.common import RunData
 
     sampled = sampled_scene(scene, record_dt_s)
     plan = sampled.resolve()
-    return RunData(sampled, plan, _with_pins(plan, run_plan(plan)))
-
-
-def _with_pins(plan: Plan, trajectory: Any) -> Any:
-    """``trajectory`` with its pins run again when ``plan`` asks for pin action."""
-    if plan.pins is None:
-        return trajectory
-
-    from bowlrec.pins.engine import require_mujoco
-    from bowlrec.pins.outcome import pin_outcome
-
-    require_mujoco()
-    return trajectory.replaced(pins=pin_outcome(plan, trajectory))
+    return RunData(sampled, plan, with_pins(plan, run_plan(plan)))
 
 
 def rerecord_is_exact(plan: Plan) -> bool:
@@ -142,6 +131,7 @@ def replay_data(
 
     from bowlrec.core.codes import RECORD_RATE
     from bowlrec.core.solver import run_plan
+    from bowlrec.pins.outcome import with_pins
     from bowlrec.sinks.common import RunData
 
     stored = archive.run_data(archive.resolve_id(run_id))
@@ -151,7 +141,7 @@ def replay_data(
         raise ValueError(f"record_dt_s = {record_dt_s!r} must be a positive number of seconds")
     scene = sampled_scene(stored.scene, record_dt_s)
     plan = replace(stored.plan, record_mode=RECORD_RATE, record_dt_s=float(record_dt_s))
-    trajectory = _with_pins(plan, run_plan(plan))
+    trajectory = with_pins(plan, run_plan(plan))
     old, new = stored.trajectory.summary, trajectory.summary
     field = _first_difference(
         old, new, exact=rerecord_is_exact(stored.plan), rtol=float(stored.plan.rtol)

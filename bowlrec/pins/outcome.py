@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from bowlrec.core.plan import Plan
     from bowlrec.core.trajectory import Trajectory
 
-__all__ = ["PinOutcome", "pin_outcome", "standing_offsets_m"]
+__all__ = ["PinOutcome", "pin_outcome", "standing_offsets_m", "with_pins"]
 
 
 @dataclass(frozen=True)
@@ -156,3 +156,14 @@ def pin_outcome(plan: Plan, trajectory: Trajectory) -> PinOutcome:
         action=action,
         entry=entry,
     )
+
+
+def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
+    """``trajectory`` with its pins (:func:`pin_outcome`) when ``plan`` asks for pin action,
+    else as it is. MissingExtraError without the ``pins`` extra."""
+    if plan.pins is None:
+        return trajectory
+    from .engine import require_mujoco
+
+    require_mujoco()
+    return trajectory.replaced(pins=pin_outcome(plan, trajectory))
