@@ -52,6 +52,31 @@ FAST_PATHS = (
 _MARK = "\x00M{}\x00"
 
 
+_HEX_DIGITS = np.frombuffer(b"0123456789abcdef", dtype=np.uint8)
+
+
+def float_hex(values: np.ndarray) -> np.ndarray:
+    """``float.hex()`` of each float64 of ``values`` as bytes (numpy ``S``), computed for the
+    whole array: sign, ``0x1.``, the 13 hex digits of the mantissa, ``p`` and the signed
+    exponent. Zeros, subnormals, infinities and NaN take ``float.hex`` itself."""
+    x = np.ascontiguousarray(values, dtype=np.float64)
+    bits = x.view(np.uint64)
+    biased = ((bits >> np.uint64(52)) & np.uint64(0x7FF)).astype(np.int64)
+    shifts = np.arange(48, -4, -4, dtype=np.uint64)
+    nibbles = (bits[:, None] >> shifts) & np.uint64(0xF)
+    digits = _HEX_DIGITS[nibbles].view("S13").ravel()
+    exponent = (biased - 1023).astype("S5")
+    exponent = np.strings.add(np.where(biased >= 1023, b"p+", b"p"), exponent)
+    head = np.where(x < 0.0, b"-0x1.", b"0x1.")
+    out = np.strings.add(np.strings.add(head, digits), exponent)
+    odd = np.flatnonzero((biased == 0) | (biased == 0x7FF))
+    if odd.size:
+        out = out.astype(f"S{max(out.dtype.itemsize, 24)}")
+        for i in odd.tolist():
+            out[i] = float(x[i]).hex().encode()
+    return out
+
+
 class _Template:
     """JSON text with placeholders: literal pieces and, between them, which value goes there."""
 
@@ -149,15 +174,22 @@ class FastSweep:
             quote=lambda mark: pydantic_core.to_json(mark).decode(),
         )
 
-    def _run_id(self, values: list[float]) -> str:
-        """SHA-256 of the canonical Plan (:func:`bowlrec.archive.run_id.run_id`) whose five
-        varying numbers are ``values`` (velocity x, y, spin x, y, z)."""
-
-        h = self._id_prefix.copy()
-        for piece, k in zip(self._id_rest, self._id_order, strict=True):
-            h.update(values[k].hex().encode())
-            h.update(piece)
-        return h.hexdigest()[:RUN_ID_LENGTH]
+    def _run_ids(self, values: np.ndarray) -> list[str]:
+        """SHA-256 of the canonical Plan (:func:`bowlrec.archive.run_id.run_id`) of each run
+        whose five varying numbers are a row of ``values`` (n, 5: velocity x, y, spin x, y,
+        z). The payload after the shared prefix is assembled for all runs at once."""
+        hexes = [float_hex(values[:, k]) for k in range(values.shape[1])]
+        rest = hexes[self._id_order[0]]
+        for piece, k in zip(self._id_rest[:-1], self._id_order[1:], strict=True):
+            rest = np.strings.add(np.strings.add(rest, piece), hexes[k])
+        rest = np.strings.add(rest, self._id_rest[-1])
+        prefix = self._id_prefix
+        out = []
+        for payload in rest.tolist():
+            h = prefix.copy()
+            h.update(payload)
+            out.append(h.hexdigest()[:RUN_ID_LENGTH])
+        return out
 
     @staticmethod
     def applies(bowler: bool, paths: Sequence[str], has_scenes: bool) -> bool:
@@ -215,8 +247,7 @@ class FastSweep:
             opts=np.repeat(base.opts, n, axis=0),
             flags=np.repeat(base.flags, n, axis=0),
         )
-        run_id = self._run_id
-        run_ids = [run_id(row) for row in np.concatenate([velocity, omega], axis=1).tolist()]
+        run_ids = self._run_ids(np.concatenate([velocity, omega], axis=1))
         fill = self._scene_template.fill
         lists = [params[p].tolist() for p in self.paths]
         text = pydantic_core.to_json

@@ -55,7 +55,7 @@ from .chunks import (
 )
 from .job import JobSpec, job_context
 from .lifeline import Lifeline, bind_worker, lifeline
-from .spans import Spans
+from .spans import SUMMARY_TARGET_S, TARGET_CHUNK_S, Spans
 
 if TYPE_CHECKING:
     from bowlrec.archive import Archive
@@ -71,7 +71,7 @@ __all__ = [
 ]
 
 #: runs per chunk at most: summary-only and recorded jobs
-SUMMARY_CHUNK = 4096
+SUMMARY_CHUNK = 16384
 RECORDED_CHUNK = 32
 
 
@@ -430,7 +430,7 @@ def run_job(
     ``workers``: local processes (None: all cores; 0: this process); ``scheduler``: a
     dask.distributed address (``tcp://host:port``) instead; ``executor``: any
     concurrent.futures Executor instead of both (kept open). ``chunk_size``: runs per task
-    (default: up to 4,096 summary-only or 32 recorded runs, at least 4 tasks per worker).
+    (default: up to 16,384 summary-only or 32 recorded runs, at least 4 tasks per worker).
     ``progress`` is called from this thread after every chunk; setting ``cancel`` stops the
     batch after the chunks in flight (their runs are kept). ``worker_writes``: "yes" workers
     seal segments, "no" they ship records back, "auto" (default) workers write when they see
@@ -494,7 +494,13 @@ def _drive(
 ) -> None:
     total = orch.total
     cap = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel)
-    ranges = Spans(total, cap, fixed=chunk_size is not None)
+    summary = orch.ctx.job.record == "summary"
+    ranges = Spans(
+        total,
+        cap,
+        fixed=chunk_size is not None,
+        target_s=SUMMARY_TARGET_S if summary else TARGET_CHUNK_S,
+    )
     inflight: dict[Future[ChunkResult], tuple[int, int]] = {}
     retried: set[tuple[int, int]] = set()
     result = orch.result
