@@ -28,6 +28,7 @@ import io
 import json
 import os
 import platform
+import re
 import resource
 import statistics
 import subprocess
@@ -145,11 +146,16 @@ def _probe(tree: Path) -> dict[str, Any]:
     return result
 
 
-def _delivery(output: str) -> list[str]:
-    """The printed summary without the solver's counts and the run ID: what stays the same
-    between physics versions (those change the step counts and the ID, and move results within
-    the tolerance, far below the printed digits)."""
-    return [line for line in output.splitlines() if "solver" not in line and "run ID" not in line]
+def _delivery(output: str) -> list[list[str]]:
+    """The numbers of the printed summary, row by row, without the solver's counts and the run
+    ID: what stays the same between physics versions (those change the step counts and the ID,
+    and move results within the tolerance, far below the printed digits) and between the
+    wordings of the table (later versions name the side of the hook and the frame)."""
+    return [
+        re.findall(r"-?\d+(?:\.\d+)?", line)
+        for line in output.splitlines()
+        if "solver" not in line and "run ID" not in line
+    ]
 
 
 def _stats(values: list[float]) -> dict[str, float]:

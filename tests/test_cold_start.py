@@ -89,10 +89,17 @@ from numba.np import arraymath
 blas = arraymath._HAVE_BLAS
 scipy_linalg = "scipy.linalg" in sys.modules
 assert numba.njit(lambda x: x + 1)(1) == 2  # compiling still works after a lean load
+import llvmlite.binding as ll
+library = next(iter(solver.simulate_kernel.overloads.values())).library
+module = library._get_module_for_linking()  # a lean load parses its bitcode now
+hidden = (ll.Linkage.private, ll.Linkage.internal)
+exported = {{g.name for gs in (module.functions, module.global_variables) for g in gs
+            if not g.is_declaration and g.linkage not in hidden}}
+symbols_known = bool(exported) and exported <= library._codegen._engine._defined_symbols
 if blas:  # and numba's own BLAS check runs when a BLAS call is compiled
     assert numba.njit(lambda a: np.dot(a, a))(np.ones(3)) == 3.0
 print(json.dumps([loaded, type(solver.simulate_kernel._cache).__name__, h.hexdigest(), blas,
-                  scipy_linalg]))
+                  scipy_linalg, type(library).__name__, symbols_known]))
 """
 #: disables the lean load (numba's own load, with its refresh) in a fresh process
 FULL_LOAD = "import bowlrec.core._kernel_cache as kc; kc.load_lean = lambda *kernels: None"
@@ -116,6 +123,11 @@ def test_a_fresh_process_loads_only_what_it_runs_and_the_bits_are_numbas(
     assert lean[3] == full[3]  # numba's answer to "is there BLAS?", without importing scipy
     assert not lean[4]
     assert full[4] == full[3]  # numba's own probe imports scipy.linalg where scipy is there
+    # the lean load takes the symbols from the object file and parses the bitcode when asked:
+    # every symbol the bitcode defines for other modules is known to the engine, as after
+    # numba's own load
+    assert (lean[5], full[5]) == ("LeanLibrary", "JITCodeLibrary")
+    assert lean[6] and full[6]
 
 
 def test_the_blas_probe_gives_numbas_answer() -> None:
@@ -139,3 +151,60 @@ def test_load_lean_leaves_other_caches_alone() -> None:
     before = type(plain._cache)
     load_lean(plain, object())
     assert type(plain._cache) is before
+
+
+#: a cached kernel in its own module (``tiny.py``)
+TINY = """
+import numba
+
+@numba.njit(cache=True)
+def scaled(x, k):
+    return 3.0 * x + k
+"""
+
+#: loads ``tiny.scaled`` (lean), then compiles a kernel that calls (links) it
+LINK = """
+import sys
+sys.path.insert(0, {folder!r})
+import numba
+from bowlrec.core._kernel_cache import load_lean
+import tiny
+load_lean(tiny.scaled)
+first = tiny.scaled(2.0, 1)
+hits = sum(tiny.scaled.stats.cache_hits.values())
+library = type(next(iter(tiny.scaled.overloads.values())).library).__name__
+
+@numba.njit
+def caller(x):
+    return tiny.scaled(x, 2) + tiny.scaled(x, 1)
+
+print(first, hits, library, caller(1.5))
+"""
+
+
+@pytest.mark.process  # fresh interpreters: a kernel compiled in one, loaded in the next
+def test_a_kernel_compiled_later_links_a_lean_loaded_one(tmp_path: Path) -> None:
+    """A kernel loaded lean keeps its bitcode unparsed until a kernel compiled later calls it;
+    then numba links it as after its own load."""
+    (tmp_path / "tiny.py").write_text(TINY)
+    code = LINK.format(folder=str(tmp_path))
+    _fresh(code)  # compiles tiny.scaled and writes its cache entry
+    first, hits, library, linked = _fresh(code).split()
+    assert (float(first), int(hits), library) == (7.0, 1, "LeanLibrary")
+    assert float(linked) == 3.0 * 1.5 + 2 + 3.0 * 1.5 + 1
+
+
+def test_symbols_are_read_only_from_64_bit_little_endian_elf_objects() -> None:
+    from bowlrec.core._lean_library import elf_defined_symbols
+
+    assert elf_defined_symbols(b"") is None
+    assert elf_defined_symbols(b"\xcf\xfa\xed\xfe" + bytes(60)) is None  # Mach-O
+    assert elf_defined_symbols(b"\x7fELF\x01\x01" + bytes(58)) is None  # 32-bit
+    header = bytearray(64)
+    header[:6] = b"\x7fELF\x02\x01"
+    header[0x10] = 1  # a relocatable object, its section table past the end of the file
+    header[0x28:0x30] = (10_000).to_bytes(8, "little")
+    header[0x3A:0x3E] = (64).to_bytes(2, "little") + (3).to_bytes(2, "little")
+    assert elf_defined_symbols(bytes(header)) is None
+    header[0x3C:0x3E] = bytes(2)  # no sections: no symbols
+    assert elf_defined_symbols(bytes(header)) == set()

@@ -63,6 +63,7 @@ from bowlrec.units import ARROWS_FT, FT_M, MPH_MPS, RPM_RADPS
 
 from .delivery import axis_angles_deg
 from .lane import BowlerLane, Handedness
+from .sides import sideways, summary_rows
 
 __all__ = [
     "ENTRY_FT",
@@ -106,28 +107,6 @@ def inferred_handedness(y_m: ArrayLike) -> Handedness:
         return "right"
     y_end = float(y[-1])
     return "right" if y_end - float(y.min()) >= float(y.max()) - y_end else "left"
-
-
-def sideways(value: float, spec: str, unit: str) -> str:
-    """A signed lane-frame quantity (+y: the bowler's left, facing the pins) as its magnitude
-    and its side: ``sideways(-1.08, ".2f", "m")`` -> "1.08 m to the right" (no side when it
-    rounds to zero; a unit "°" follows the number without a space)."""
-    text = f"{abs(value):{spec}}" + ("" if unit == "°" else " ") + unit
-    if float(f"{abs(value):{spec}}") == 0.0:
-        return text
-    return f"{text} to the {'left' if value > 0 else 'right'}"
-
-
-def summary_rows(hook_m: float | None, pocket_deg: float | None) -> list[tuple[str, str]]:
-    """The hook and pocket-angle rows of a run's summary as a bowler reads them: magnitudes
-    with their side named (the signed lane-frame values are the archive's ``hook_m`` and
-    ``pocket_deg``); none for a ball that did not reach the pins."""
-    if hook_m is None or pocket_deg is None or not math.isfinite(hook_m):
-        return []
-    return [
-        ("hook", sideways(100.0 * hook_m, ".2f", "cm")),
-        ("pocket angle", sideways(pocket_deg, ".3f", "deg")),
-    ]
 
 
 @dataclass(frozen=True)

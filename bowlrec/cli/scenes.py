@@ -240,7 +240,7 @@ def _print_pins(pins: Any) -> None:
 def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store: Any) -> None:
     from rich.table import Table
 
-    from bowlrec.bowling.report import summary_rows
+    from bowlrec.bowling.sides import summary_rows
 
     s = traj.summary
     table = Table(title=f"bowlrec: {name}", show_header=False)

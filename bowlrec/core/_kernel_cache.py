@@ -67,9 +67,10 @@ wherever scipy is installed (scipy is no runtime dependency; the kernels use no 
 tests/test_no_blas_in_kernels.py): the lean load imports it with that question answered by
 looking for the extension module's file instead, the same answer in any working install, and
 numba's own check (import and integer-width check) runs when something first compiles a BLAS
-call. A kernel that must be compiled still gets the refresh (numba's compiler does it first), so
-does every other kernel. Together this saves ~0.3 s of a fresh process's ~1.5 s
-(benchmarks/results/cold_start.md).
+call. The entry's code library is :mod:`._lean_library`'s while it loads: its symbols come from
+the object file, its linking bitcode is parsed only when a kernel compiled later links it. A
+kernel that must be compiled still gets the refresh (numba's compiler does it first), so does
+every other kernel (benchmarks/results/cold_start.md).
 """
 
 from __future__ import annotations
@@ -510,10 +511,28 @@ def _lean_cache_class() -> type | None:
         def load_overload(self, sig: Any, target_context: Any) -> Any:
             rtsys.initialize(target_context)  # what the refresh does first: kernels need NRT
             _import_arraymath()  # numba holds its compiler lock here: no probe runs meanwhile
-            with self._guard_against_spurious_io_errors():
+            with self._guard_against_spurious_io_errors(), _lean_libraries(target_context):
                 return self._load_overload(sig, target_context)
 
     return LeanFunctionCache
+
+
+@contextlib.contextmanager
+def _lean_libraries(target_context: Any) -> Iterator[None]:
+    """While numba loads a kernel (under its compiler lock), its code library is
+    :mod:`._lean_library`'s: the linking bitcode is parsed when a later kernel links it."""
+    from ._lean_library import lean_library_class
+
+    codegen = target_context.codegen()
+    lean = lean_library_class(type(codegen)._library_class)
+    if lean is None or "_library_class" in vars(codegen):
+        yield
+        return
+    codegen._library_class = lean
+    try:
+        yield
+    finally:
+        del codegen._library_class
 
 
 def load_lean(*kernels: Any) -> None:

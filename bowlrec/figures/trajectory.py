@@ -380,7 +380,7 @@ def run_label(run: RunData, *, short: bool = False) -> str:
     no_roll = "no roll" if short else "no roll (slides to the end)"
     slide = no_roll if s.slide_m is None else f"slide {s.slide_m:.2f} m"
     if s.outcome == "pins" and s.hook_m is not None and s.pocket_deg is not None:
-        from bowlrec.bowling.report import sideways
+        from bowlrec.bowling.sides import sideways
 
         hook = sideways(100.0 * s.hook_m, ".0f", "cm")
         result = f"hook {hook}, pocket {sideways(s.pocket_deg, '.1f', '°')}"
