@@ -172,15 +172,18 @@ def cli_row(job_path: Path, tmp: Path, total: int) -> dict[str, Any]:
     }
 
 
-def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
-    """µs per run of each stage in one process (a chunk of ``n`` runs, after a warm chunk)."""
+def per_run_costs(job: Any, tmp: Path, n: int | None = None) -> dict[str, float]:
+    """µs per run of each stage in one process (a chunk of ``n`` runs, after a warm chunk;
+    default: the batch's largest summary-only chunk)."""
     from bowlrec.archive import Archive
     from bowlrec.batch import job_context
     from bowlrec.batch.chunks import ChunkTask, run_chunk
     from bowlrec.batch.context import WriteTarget
     from bowlrec.batch.fastprep import FastSweep
+    from bowlrec.batch.runner import SUMMARY_CHUNK
     from bowlrec.spec import Scene
 
+    n = n or SUMMARY_CHUNK
     archive = Archive(tmp / "costs")
     ctx = job_context(job, base_dir=JOBS)
     assert ctx.fast_paths is not None
@@ -196,7 +199,7 @@ def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
     table_only = run_chunk(ChunkTask(ctx, 1000, 1000 + n, None))
     no_archive = time.perf_counter() - t0
     t0 = time.perf_counter()
-    stored = run_chunk(ChunkTask(ctx, 6000, 6000 + n, target))
+    stored = run_chunk(ChunkTask(ctx, 2000 + n, 2000 + 2 * n, target))
     with_archive = time.perf_counter() - t0
     assert len(stored.segments) == 1, stored.error
     t0 = time.perf_counter()
@@ -205,6 +208,7 @@ def per_run_costs(job: Any, tmp: Path, n: int = 4096) -> dict[str, float]:
     us = 1e6 / n
     kernel = (table_only.simulate_s + stored.simulate_s) / 2 * us
     return {
+        "chunk_runs": float(n),
         "prepare_us": prepare * us,
         "kernel_us": kernel,
         "chunk_no_archive_us": no_archive * us,
@@ -706,7 +710,7 @@ def markdown(d: dict[str, Any]) -> str:
         "wall time of the call (start-up of the workers and, for the CLI, of the process "
         "included).",
         "",
-        "## Per-run costs (one process, a chunk of 4,096 runs)",
+        f"## Per-run costs (one process, a chunk of {c.get('chunk_runs', 4096):,.0f} runs)",
         "",
         "| stage | µs per run |",
         "|---|---:|",

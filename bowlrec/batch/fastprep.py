@@ -66,9 +66,9 @@ def float_hex(values: np.ndarray) -> np.ndarray:
     nibbles = (bits[:, None] >> shifts) & np.uint64(0xF)
     digits = _HEX_DIGITS[nibbles].view("S13").ravel()
     exponent = (biased - 1023).astype("S5")
-    exponent = np.strings.add(np.where(biased >= 1023, b"p+", b"p"), exponent)
+    exponent = np.char.add(np.where(biased >= 1023, b"p+", b"p"), exponent)
     head = np.where(x < 0.0, b"-0x1.", b"0x1.")
-    out = np.strings.add(np.strings.add(head, digits), exponent)
+    out = np.char.add(np.char.add(head, digits), exponent)
     odd = np.flatnonzero((biased == 0) | (biased == 0x7FF))
     if odd.size:
         out = out.astype(f"S{max(out.dtype.itemsize, 24)}")
@@ -181,8 +181,8 @@ class FastSweep:
         hexes = [float_hex(values[:, k]) for k in range(values.shape[1])]
         rest = hexes[self._id_order[0]]
         for piece, k in zip(self._id_rest[:-1], self._id_order[1:], strict=True):
-            rest = np.strings.add(np.strings.add(rest, piece), hexes[k])
-        rest = np.strings.add(rest, self._id_rest[-1])
+            rest = np.char.add(np.char.add(rest, piece), hexes[k])
+        rest = np.char.add(rest, self._id_rest[-1])
         prefix = self._id_prefix
         out = []
         for payload in rest.tolist():
