@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bowlrec.archive.index import create_schema
+from bowlrec.archive.index import RUN_TABLE_COLUMNS, create_schema
 from bowlrec.archive.registry import INSERT_RUN, insert_runs
 from bowlrec.archive.run_id import RUN_ID_LENGTH, run_id
 from bowlrec.batch.fastprep import FastSweep, float_hex
@@ -101,8 +101,6 @@ def _row(k: int, pins: bool, ball: bool) -> tuple[Any, ...]:
         "pinfall": 9 if pins else None,
         "leave": "10" if pins else None,
     }
-    from bowlrec.archive.index import RUN_TABLE_COLUMNS
-
     return tuple(values.get(c, float(k) / 3.0) for c in RUN_TABLE_COLUMNS)
 
 
