@@ -3,6 +3,8 @@ same, and compaction rewrites them with gzip."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import h5py
@@ -65,3 +67,31 @@ def test_compaction_recompresses_uncompressed_samples(tmp_path: Path) -> None:
 def test_an_unknown_filter_is_refused() -> None:
     with pytest.raises(ValueError, match="samples"):
         JobSpec.model_validate({"samples": "brotli"})
+
+
+#: loads every run of the archive at argv[1] in a fresh interpreter, then prints whether the
+#: Blosc plugin package was imported
+LOAD_ALL = """
+import sys
+from bowlrec.archive import Archive
+archive = Archive(sys.argv[1])
+for row in archive.list_runs():
+    assert archive.load(row["run_id"]).trajectory.n_samples > 0
+print("hdf5plugin" in sys.modules)
+"""
+
+
+@pytest.mark.process  # a fresh interpreter's modules
+@pytest.mark.parametrize(("samples", "imported"), [("gzip", "False"), ("lz4", "True")])
+def test_the_blosc_plugin_is_imported_only_for_samples_stored_with_it(
+    tmp_path: Path, samples: str, imported: str
+) -> None:
+    archive = Archive(tmp_path / "a")
+    assert run_job(_job(samples), archive, workers=0).counts["ok"] == 3
+    out = subprocess.run(
+        [sys.executable, "-c", LOAD_ALL, str(archive.root)],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert out.stdout.strip().splitlines()[-1] == imported

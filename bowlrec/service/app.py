@@ -199,7 +199,9 @@ class _State:
         return status_for(err)
 
 
-def _state(request: Request) -> _State:
+async def _state(request: Request) -> _State:
+    """The app's shared state (async: a dependency that does not block runs on the event loop
+    instead of taking a worker thread, as a sync one would)."""
     state: _State = request.app.state.bowlrec
     return state
 
@@ -207,13 +209,13 @@ def _state(request: Request) -> _State:
 _bearer = HTTPBearer(auto_error=False, description="The server's token (serve --token-env).")
 
 
-def _check_token(
+async def _check_token(
     request: Request,
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(_bearer)],
 ) -> None:
     """The bearer token or a valid session cookie (``POST /session``): 401 unless
     :meth:`_State.signed_in`."""
-    if _state(request).signed_in(request):
+    if (await _state(request)).signed_in(request):
         return
     raise HTTPException(
         401,
@@ -232,7 +234,7 @@ runs = APIRouter(prefix="/runs", tags=["runs"], responses=_ERRORS)
 
 
 @runs.post("", response_model=SubmitResponse, status_code=201)
-def submit_scene(
+async def submit_scene(
     state: StateDep,
     response: Response,
     scene: Annotated[dict[str, Any], Body(openapi_examples=SCENE_EXAMPLE)],
@@ -243,6 +245,13 @@ def submit_scene(
     library reference ``"name"`` or ``"name@version"``. The response comes once the run is
     sealed and indexed; summary-only runs of concurrent requests are sealed together in one
     segment (group commit)."""
+    # the blocking work in one worker thread; the response is serialized on the event loop
+    # (a sync endpoint would hand its serialization to a worker thread as well)
+    return await run_in_threadpool(_submit, state, response, scene)
+
+
+def _submit(state: _State, response: Response, scene: dict[str, Any]) -> SubmitResponse:
+    """POST /runs's work: parse, simulate and archive (blocking)."""
     parsed = parse_scene_spec(scene, state.archive.balls)
     recorded = parsed.scene.options.record != "summary"
     with state.recordings.slot() if recorded else contextlib.nullcontext():
