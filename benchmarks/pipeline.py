@@ -102,7 +102,8 @@ def kernel_rate(packed: Any, repeats: int = 3) -> float:
 
 
 class _Steady:
-    """Progress callback: the rate between 10 % and 90 % of the runs."""
+    """Progress callback: the rate between 10 % and 90 % of the runs (where the progress jumps
+    over 90 %: up to the last report short of all the runs)."""
 
     def __init__(self) -> None:
         self.points: list[tuple[float, int]] = []
@@ -113,9 +114,12 @@ class _Steady:
     def rate(self, total: int) -> float:
         lo = [pt for pt in self.points if pt[1] >= 0.1 * total]
         hi = [pt for pt in self.points if pt[1] >= 0.9 * total]
-        if not lo or not hi or hi[0][0] <= lo[0][0]:
-            return float("nan")
-        return (hi[0][1] - lo[0][1]) / (hi[0][0] - lo[0][0])
+        if lo and hi and hi[0][0] > lo[0][0]:
+            return (hi[0][1] - lo[0][1]) / (hi[0][0] - lo[0][0])
+        short = [pt for pt in lo if pt[1] < total]
+        if len(short) >= 2 and short[-1][0] > short[0][0]:
+            return (short[-1][1] - short[0][1]) / (short[-1][0] - short[0][0])
+        return float("nan")
 
 
 def batch_row(label: str, job: Any, archive: Any, total: int) -> dict[str, Any]:
@@ -380,8 +384,31 @@ def service_rows(tmp: Path, n_job: int, clients: int, per_client: int) -> dict[s
     return out
 
 
+def _server_pid(url: str) -> int | None:
+    """The process listening at ``url`` (a ``bowlrec serve --port P`` of :func:`server`), found
+    by its command line in /proc; None where there is no /proc."""
+    port = url.rsplit(":", 1)[1].strip("/")
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            args = cmdline.read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"serve" in args and b"--port" in args and port.encode() in args:
+            return int(cmdline.parent.name)
+    return None
+
+
+def _cpu_s(pid: int | None) -> float:
+    """User + system CPU time of process ``pid`` (s; 0 without /proc)."""
+    if pid is None:
+        return 0.0
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str, Any]:
-    """``clients`` threads, each with its own httpx client, ``per_client`` requests each."""
+    """``clients`` threads, each with its own httpx client, ``per_client`` requests each; with
+    the CPU time the server process and this (the clients') process spent on them."""
     import threading
 
     import httpx
@@ -409,15 +436,24 @@ def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str,
     threads = [threading.Thread(target=work, args=(k,)) for k in range(clients)]
     for t in threads:
         t.start()
+    pid = _server_pid(url)
     barrier.wait()
-    t0 = time.perf_counter()
+    t0, server0, clients0 = time.perf_counter(), _cpu_s(pid), time.process_time()
     for t in threads:
         t.join()
     wall = time.perf_counter() - t0
+    server_s, clients_s = _cpu_s(pid) - server0, time.process_time() - clients0
     if errors:
         raise RuntimeError(f"{len(errors)} failed requests, e.g. {errors[0]}")
     total = clients * per_client
-    return {"requests": total, "wall_s": wall, "per_s": total / wall}
+    return {
+        "requests": total,
+        "wall_s": wall,
+        "per_s": total / wall,
+        "server_cpu_ms_per_request": 1e3 * server_s / total,
+        "server_cores": server_s / wall,
+        "client_cores": clients_s / wall,
+    }
 
 
 def _rss_mb(pid: int) -> float:
@@ -800,7 +836,13 @@ def markdown(d: dict[str, Any]) -> str:
         f"16 concurrent clients (httpx, one thread and one connection each, "
         f"{s['runs']['requests']} requests): `POST /runs` of new summary-only scenes "
         f"{_f(s['runs']['per_s'])} requests/s; `GET /health` of the same app "
-        f"{_f(s['health']['per_s'])} requests/s; ratio {_f(s['runs']['pct_of_health'], 1)} %.",
+        f"{_f(s['health']['per_s'])} requests/s; ratio {_f(s['runs']['pct_of_health'], 1)} %. "
+        "CPU of the server process per request: "
+        f"`POST /runs` {_f(s['runs']['server_cpu_ms_per_request'], 2)} ms, `GET /health` "
+        f"{_f(s['health']['server_cpu_ms_per_request'], 2)} ms; the server process used "
+        f"{_f(s['runs']['server_cores'], 2)} / {_f(s['health']['server_cores'], 2)} cores and "
+        f"the clients' process {_f(s['runs']['client_cores'], 2)} / "
+        f"{_f(s['health']['client_cores'], 2)} (one interpreter each).",
         "",
         "## A 10,000,000-run job",
         "",

@@ -8,12 +8,15 @@ waits for one commit (no timer, no batch to fill); under load, the runs that arr
 commit go together into the next, so the cost of a commit is shared.
 
 A run is reported archived only after its segment is sealed (fsynced) and registered, as with
-:meth:`~bowlrec.archive.Archive.add`.
+:meth:`~bowlrec.archive.Archive.add`. The sealing and registering itself is
+:func:`commit_runs`, run in the committer thread or handed to another process (a server's
+:class:`~bowlrec.service.writer.WriterProcess`) through the committer's ``commit``.
 """
 
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol
@@ -26,7 +29,33 @@ from .writing import new_builder, register, seal
 if TYPE_CHECKING:
     from .segment_format import RunRecord
 
-__all__ = ["GroupCommitter"]
+__all__ = ["Commit", "GroupCommitter", "commit_runs"]
+
+#: what seals and registers one group: the runs in, for each run (added by this commit, the
+#: path of the segment that holds it, None when it is not archived)
+Commit = Callable[[list["RunRecord"]], list[tuple[bool, Path | None]]]
+
+
+def commit_runs(
+    d: ArchiveDir, records: Sequence[RunRecord], *, durable: bool = True
+) -> list[tuple[bool, Path | None]]:
+    """Seal the runs not archived yet as one segment (``durable``: fsynced) and register it in
+    one index transaction; for each run in order: (added by this commit, the path of the
+    segment that holds it, None when it is not archived)."""
+    found = rows(d, (r.run_id for r in records))
+    builder = new_builder()
+    mine = {i for i, r in enumerate(records) if r.run_id not in found and builder.append(r)}
+    info = None
+    if len(builder):
+        info = seal(d, builder, durable=durable)
+        faults.point("group-commit-sealed", path=info.path)
+        register(d, [info])
+    out: list[tuple[bool, Path | None]] = []
+    for i, r in enumerate(records):
+        located = locate(d, r.run_id)
+        path = located[2] if located is not None else None
+        out.append((i in mine and info is not None and path == info.path, path))
+    return out
 
 
 class _HasDirectory(Protocol):
@@ -50,17 +79,24 @@ class GroupCommitter:
 
     ``archive``: an :class:`~.directory.ArchiveDir` or what holds one (an
     :class:`~bowlrec.archive.Archive`); ``max_runs``: runs per segment at most; ``durable``:
-    fsync each segment. :meth:`start` starts the committer thread (the first :meth:`add` does
-    if needed); :meth:`close` stops it after committing the runs already handed over, and a
-    run added later is committed on its own in the calling thread.
+    fsync each segment; ``commit``: what seals and registers a group (None:
+    :func:`commit_runs` in the committer thread). :meth:`start` starts the committer thread
+    (the first :meth:`add` does if needed); :meth:`close` stops it after committing the runs
+    already handed over, and a run added later is committed on its own in the calling thread.
     """
 
     def __init__(
-        self, archive: ArchiveDir | _HasDirectory, *, max_runs: int = 1000, durable: bool = True
+        self,
+        archive: ArchiveDir | _HasDirectory,
+        *,
+        max_runs: int = 1000,
+        durable: bool = True,
+        commit: Commit | None = None,
     ) -> None:
         self.directory = archive if isinstance(archive, ArchiveDir) else archive.directory
         self.max_runs = max_runs
         self.durable = durable
+        self._commit_runs = commit
         self._cond = threading.Condition()
         self._pending: list[_Waiter] = []
         self._closed = False
@@ -115,26 +151,19 @@ class GroupCommitter:
 
     def _commit(self, batch: list[_Waiter]) -> None:
         """Seal and register the batch's runs (those not archived yet) as one segment."""
-        d = self.directory
+        records = [w.record for w in batch]
         try:
-            found = rows(d, (w.record.run_id for w in batch))
-            builder = new_builder()
-            fresh = [w for w in batch if w.record.run_id not in found]
-            added = [w for w in fresh if builder.append(w.record)]
-            info = None
-            if len(builder):
-                info = seal(d, builder, durable=self.durable)
-                faults.point("group-commit-sealed", path=info.path)
-                register(d, [info])
-                self.commits += 1
-                self.committed_runs += len(builder)
-            mine = {id(w) for w in added}
-            for w in batch:
-                located = locate(d, w.record.run_id)
-                w.path = located[2] if located is not None else None
-                w.added = id(w) in mine and info is not None and w.path == info.path
-                if w.path is None:
+            if self._commit_runs is None:
+                results = commit_runs(self.directory, records, durable=self.durable)
+            else:
+                results = self._commit_runs(records)
+            for w, (added, path) in zip(batch, results, strict=True):
+                w.added, w.path = added, path
+                if path is None:
                     w.error = RuntimeError(f"run {w.record.run_id} was not archived")
+            if any(added for added, _ in results):
+                self.commits += 1
+                self.committed_runs += sum(1 for added, _ in results if added)
         except BaseException as err:  # the write failed: every waiter of this batch learns it
             for w in batch:
                 w.error = err

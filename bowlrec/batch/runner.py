@@ -158,29 +158,33 @@ class _Workers:
         return any(p.exitcode is not None for p in list(processes.values()))
 
     def restart(self) -> None:
-        """Kill what is left of the pool and start a new one.
-
-        A worker killed while sending its result leaves a partial message in the pool's result
-        pipe, and the pool's manager thread then waits for the rest of it forever (and Python
-        waits for that thread at exit). Once every worker is dead, closing this process's copy
-        of the pipe's write end lets that read end with EOF, so the old pool shuts down."""
+        """Kill what is left of the pool and start a new one (:func:`discard_pool`)."""
         assert self._make is not None
-        old = self.pool
-        processes = list((getattr(old, "_processes", None) or {}).values())
-        for p in processes:
-            if p.exitcode is None:
-                p.kill()
-        for p in processes:
-            p.join(timeout=10)
-        writer = getattr(getattr(old, "_result_queue", None), "_writer", None)
-        if writer is not None:
-            with contextlib.suppress(OSError):
-                writer.close()
-        old.shutdown(wait=False, cancel_futures=True)
+        discard_pool(self.pool)
         self.pool = self._make()
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def discard_pool(old: Executor) -> None:
+    """Kill what is left of a process pool one of whose processes died, and shut it down.
+
+    A worker killed while sending its result leaves a partial message in the pool's result
+    pipe, and the pool's manager thread then waits for the rest of it forever (and Python
+    waits for that thread at exit). Once every worker is dead, closing this process's copy of
+    the pipe's write end lets that read end with EOF, so the old pool shuts down."""
+    processes = list((getattr(old, "_processes", None) or {}).values())
+    for p in processes:
+        if p.exitcode is None:
+            p.kill()
+    for p in processes:
+        p.join(timeout=10)
+    writer = getattr(getattr(old, "_result_queue", None), "_writer", None)
+    if writer is not None:
+        with contextlib.suppress(OSError):
+            writer.close()
+    old.shutdown(wait=False, cancel_futures=True)
 
 
 @contextmanager

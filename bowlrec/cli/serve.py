@@ -238,6 +238,7 @@ def _serve(
             scheduler=scheduler,
             max_body_bytes=max_body_bytes,
             allowed_hosts=allowed_hosts or (),
+            writer_process=True,
         )
     except BaseException:
         for sock in sockets:

@@ -106,6 +106,7 @@ from .security import (
     token_matches,
 )
 from .slots import RecordingSlots
+from .writer import WriterProcess
 
 __all__ = ["create_app"]
 
@@ -159,12 +160,15 @@ class _State:
         jobs: JobManager,
         token: str | None,
         session_ttl_s: float = DEFAULT_SESSION_TTL_S,
+        writer: WriterProcess | None = None,
     ) -> None:
 
         self.archive = archive
         self.jobs = jobs
+        #: where the committer's groups are sealed and registered (None: its own thread)
+        self.writer = writer
         #: seals the summary-only runs of concurrent POST /runs requests together
-        self.commits = GroupCommitter(archive)
+        self.commits = GroupCommitter(archive, commit=writer)
         self.token = token
         self.sessions = SessionStore(session_ttl_s)
         #: server paths out of error details
@@ -687,6 +691,7 @@ def create_app(
     max_body_bytes: int | None = DEFAULT_MAX_BODY_BYTES,
     allowed_hosts: Iterable[str] = (),
     session_ttl_s: float = DEFAULT_SESSION_TTL_S,
+    writer_process: bool = False,
 ) -> FastAPI:
     """The service for the archive at ``archive_dir`` (created if missing).
 
@@ -702,6 +707,9 @@ def create_app(
     MiB). ``allowed_hosts``: ``Host`` names accepted besides the loopback ones (requests
     without the bearer token naming another host get 400). ``session_ttl_s``: the lifetime of
     a cookie session. Raises ValueError for an allowed host that is not a host name.
+    ``writer_process``: the group commits of ``POST /runs`` are sealed and registered in a
+    process of their own (:mod:`bowlrec.service.writer`; ``bowlrec serve`` does this), else in
+    a thread of the server process.
     """
 
     hosts = list(allowed_hosts)
@@ -716,12 +724,15 @@ def create_app(
         JobManager(archive, workers=job_workers, scheduler=scheduler),
         token or None,
         session_ttl_s,
+        WriterProcess(archive.root) if writer_process else None,
     )
     state.jobs.open()  # fails now (JobsLockedError) if another server runs this archive's jobs
 
     @contextlib.asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         state.jobs.start()
+        if state.writer is not None:
+            state.writer.start()
         state.commits.start()
         if warm_up:
             assets.prepare_viewer_in_background(state.viewer)
@@ -731,6 +742,8 @@ def create_app(
             yield
         finally:
             await run_in_threadpool(state.commits.close)
+            if state.writer is not None:
+                await run_in_threadpool(state.writer.close)
             await run_in_threadpool(state.jobs.stop)
 
     app = FastAPI(
