@@ -11,9 +11,10 @@ transactions at a time, as with the committer thread.
 
 The writer starts with the server (:meth:`WriterProcess.start`, in the background) and dies with
 it, also when the server is killed (:mod:`bowlrec.batch.lifeline`). When it dies mid-commit
-(killed, out of memory), the runs of that group are reported as not archived
-(:class:`~bowlrec.errors.ArchiveWriteError`; a segment it sealed and did not register is
-indexed by the next writer, as after any crash) and a new writer process serves the next group.
+(killed, out of memory), the requests of that group fail
+(:class:`~bowlrec.errors.ArchiveWriteError`: their runs may not be archived; a segment it
+sealed and did not register is indexed by the next writer, as after any crash, so a run
+submitted again may answer ``added: false``) and a new writer process serves the next group.
 """
 
 from __future__ import annotations
@@ -109,7 +110,8 @@ class WriterProcess:
             self._replace(pool)
             raise ArchiveWriteError(
                 f"{self.root}: the archive's writer process stopped during a commit of "
-                f"{len(records)} run(s); they were not archived (submit them again)"
+                f"{len(records)} run(s), which may not be archived: submit them again (one "
+                "archived meanwhile answers added: false)"
             ) from None
 
     def _replace(self, broken: ProcessPoolExecutor) -> None:
