@@ -170,10 +170,11 @@ def write_segment(
 
 #: segments whose datasets hold at most this many bytes are built in memory (HDF5's "core"
 #: driver) and written to the file in one piece; larger ones are written as HDF5 goes (the
-#: default driver). The file is the same byte for byte either way, and the one write saves
-#: HDF5's hundreds of small ones: half the time to write a segment of a few runs
-#: (tests/test_hdf5_objects.py)
-IN_MEMORY_BYTES = 64 << 20
+#: default driver). The file is the same byte for byte either way (tests/test_hdf5_objects.py).
+#: The one write saves HDF5's hundreds of small ones, which is most of the time to write a
+#: segment of a few runs on a busy machine; for segments of megabytes both take the same time,
+#: and for larger ones growing the image in memory costs more than it saves
+IN_MEMORY_BYTES = 4 << 20
 
 
 def _file_driver(columns: dict[str, Any]) -> dict[str, Any]:
