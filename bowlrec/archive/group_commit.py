@@ -78,11 +78,12 @@ class GroupCommitter:
     """Seals runs added from many threads in shared segments (see the module docs).
 
     ``archive``: an :class:`~.directory.ArchiveDir` or what holds one (an
-    :class:`~bowlrec.archive.Archive`); ``max_runs``: runs per segment at most; ``durable``:
-    fsync each segment; ``commit``: what seals and registers a group (None:
-    :func:`commit_runs` in the committer thread). :meth:`start` starts the committer thread
-    (the first :meth:`add` does if needed); :meth:`close` stops it after committing the runs
-    already handed over, and a run added later is committed on its own in the calling thread.
+    :class:`~bowlrec.archive.Archive`); ``max_runs``: runs per segment at most; ``commit``:
+    what seals and registers a group (None: :func:`commit_runs` in the committer thread, which
+    fsyncs each segment when ``durable``; a ``commit`` given decides that for itself).
+    :meth:`start` starts the committer thread (the first :meth:`add` does if needed);
+    :meth:`close` stops it after committing the runs already handed over, and a run added
+    later is committed on its own in the calling thread.
     """
 
     def __init__(
@@ -101,7 +102,8 @@ class GroupCommitter:
         self._pending: list[_Waiter] = []
         self._closed = False
         self._thread: threading.Thread | None = None
-        #: segments committed and runs in them (for monitoring and tests)
+        #: commits that added runs (each one segment) and the runs they added (for monitoring
+        #: and tests)
         self.commits = 0
         self.committed_runs = 0
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -384,7 +385,8 @@ class SegmentFile:
         self.blocks = version_tuple(version) >= (2, 3)
         #: 3.0 and on: samples store the state only, the rest is derived on read
         self.state = version_tuple(version) >= version_tuple(STATE_FORMAT_VERSION)
-        if self.state and _uses_blosc(self._f):  # samples stored with Blosc LZ4
+        # samples stored with Blosc LZ4 need hdf5plugin's filter (imported once per process)
+        if self.state and "hdf5plugin" not in sys.modules and _uses_blosc(self._f):
             lz4_filters()
         self._dsets: dict[str, Any] = {}
         self._scene_shared: dict[str, Any] | None = None

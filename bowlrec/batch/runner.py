@@ -152,10 +152,7 @@ class _Workers:
 
     def broken(self) -> bool:
         """True when a process of the local pool has died."""
-        processes = getattr(self.pool, "_processes", None)  # ProcessPoolExecutor's workers
-        if self._make is None or not processes:
-            return False
-        return any(p.exitcode is not None for p in list(processes.values()))
+        return self._make is not None and pool_died(self.pool)
 
     def restart(self) -> None:
         """Kill what is left of the pool and start a new one (:func:`discard_pool`)."""
@@ -165,6 +162,12 @@ class _Workers:
 
     def close(self) -> None:
         self.pool.shutdown(wait=True, cancel_futures=True)
+
+
+def pool_died(pool: Executor) -> bool:
+    """Whether a process of a process pool has exited (False for other executors)."""
+    processes = getattr(pool, "_processes", None) or {}  # ProcessPoolExecutor's workers
+    return any(p.exitcode is not None for p in list(processes.values()))
 
 
 def discard_pool(old: Executor) -> None:

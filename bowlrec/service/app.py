@@ -724,7 +724,7 @@ def create_app(
         JobManager(archive, workers=job_workers, scheduler=scheduler),
         token or None,
         session_ttl_s,
-        WriterProcess(archive.root) if writer_process else None,
+        WriterProcess(archive.directory) if writer_process else None,
     )
     state.jobs.open()  # fails now (JobsLockedError) if another server runs this archive's jobs
 

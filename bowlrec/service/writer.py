@@ -19,12 +19,13 @@ submitted again may answer ``added: false``) and a new writer process serves the
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import multiprocessing
 import os
 import signal
 import threading
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -32,7 +33,7 @@ from typing import TYPE_CHECKING
 from bowlrec.archive.directory import ArchiveDir
 from bowlrec.archive.group_commit import commit_runs
 from bowlrec.batch.lifeline import Lifeline, bind_worker, lifeline
-from bowlrec.batch.runner import discard_pool
+from bowlrec.batch.runner import discard_pool, pool_died
 from bowlrec.errors import ArchiveWriteError
 
 if TYPE_CHECKING:
@@ -64,13 +65,18 @@ def _commit(root: str, records: list[RunRecord], durable: bool) -> list[tuple[bo
     return commit_runs(_directory(root), records, durable=durable)
 
 
+#: seconds between checks that the writer process is alive while a group is committed
+POLL_S = 0.25
+
+
 class WriterProcess:
-    """Seals and registers groups of runs of the archive at ``root`` in a child process; a
+    """Seals and registers groups of runs of the archive ``directory`` in a child process; a
     :data:`~bowlrec.archive.group_commit.Commit` (call it with a group's records).
     ``durable``: fsync each segment."""
 
-    def __init__(self, root: Path, *, durable: bool = True) -> None:
-        self.root = Path(root)
+    def __init__(self, directory: ArchiveDir, *, durable: bool = True) -> None:
+        self.directory = directory
+        self.root = str(directory.root)
         self.durable = durable
         self._pool: ProcessPoolExecutor | None = None
         self._closed = False
@@ -89,29 +95,61 @@ class WriterProcess:
         """Start the writer process; it opens the archive in the background (the first group
         waits for that if it comes first)."""
         with self._lock:
-            if self._pool is None and not self._closed:
-                self._pool = self._new_pool()
-                self._pool.submit(_open, str(self.root))
+            self._started()
         return self
+
+    def _started(self) -> ProcessPoolExecutor | None:
+        """The pool, started if needed; None after :meth:`close` (hold ``_lock``)."""
+        if self._pool is None and not self._closed:
+            self._pool = self._new_pool()
+            self._pool.submit(_open, self.root)
+        return self._pool
 
     def __call__(self, records: list[RunRecord]) -> list[tuple[bool, Path | None]]:
         """Commit one group in the writer process (see
         :func:`~bowlrec.archive.group_commit.commit_runs`); raises what the commit raised, or
-        :class:`ArchiveWriteError` when the writer process died during it. After
-        :meth:`close` (a server shutting down), the group is committed in this process."""
-        self.start()
-        with self._lock:
-            pool = self._pool
-        if pool is None:
-            return commit_runs(ArchiveDir(self.root, create=False), records, durable=self.durable)
-        try:  # a pool that already knows its process died refuses the submission
-            return pool.submit(_commit, str(self.root), records, self.durable).result()
-        except BrokenProcessPool:
+        :class:`ArchiveWriteError` when the writer process died during it. A writer found dead
+        before the group was handed over is replaced and the group handed to the new one.
+        After :meth:`close` (a server shutting down), the group is committed in this process."""
+        for attempt in range(2):
+            with self._lock:  # close() cannot shut the pool down between these two lines
+                pool = self._started()
+                if pool is None:
+                    break
+                future = None
+                if not pool_died(pool):  # else it died idle: nothing is handed over
+                    with contextlib.suppress(BrokenProcessPool):  # the same, as the pool saw it
+                        future = pool.submit(_commit, self.root, records, self.durable)
+            if future is None:
+                self._replace(pool)
+                if attempt == 0:
+                    continue
+                raise ArchiveWriteError(
+                    f"{self.root}: the archive's writer process cannot be started"
+                ) from None
+            return self._result(pool, future, len(records))
+        return commit_runs(self.directory, records, durable=self.durable)
+
+    def _result(
+        self, pool: ProcessPoolExecutor, future: Future[list[tuple[bool, Path | None]]], n: int
+    ) -> list[tuple[bool, Path | None]]:
+        """The group's result; ArchiveWriteError when the writer process dies first. The
+        process is checked every :data:`POLL_S` s: one killed while sending its result leaves a
+        partial message that the pool itself would wait for forever."""
+        while True:
+            done, _ = wait([future], timeout=POLL_S)
+            try:
+                if done:
+                    return future.result()
+                if not pool_died(pool):
+                    continue
+            except BrokenProcessPool:
+                pass
             self._replace(pool)
             raise ArchiveWriteError(
-                f"{self.root}: the archive's writer process stopped during a commit of "
-                f"{len(records)} run(s), which may not be archived: submit them again (one "
-                "archived meanwhile answers added: false)"
+                f"{self.root}: the archive's writer process stopped during a commit of {n} "
+                "run(s), which may not be archived: submit them again (one archived meanwhile "
+                "answers added: false)"
             ) from None
 
     def _replace(self, broken: ProcessPoolExecutor) -> None:
@@ -123,7 +161,8 @@ class WriterProcess:
         discard_pool(broken)
 
     def pid(self) -> int | None:
-        """The writer process's pid (None before it has started)."""
+        """The pid of the writer process now serving (None when there is none: not started,
+        closed, or replaced and not started again)."""
         with self._lock:
             pool = self._pool
         if pool is None:
