@@ -80,10 +80,13 @@ def _command_name(argv: Sequence[str]) -> str | None:
 
 def main() -> None:
     """The ``bowlrec`` command: registers the commands it may run, then runs the application."""
-    module = COMMANDS.get(_command_name(sys.argv[1:]) or "")
-    load_commands((module,) if module is not None else MODULES)
-    from ._app import app
-
+    try:  # a Ctrl-C while the command's modules load: one line and 130, as inside a command
+        module = COMMANDS.get(_command_name(sys.argv[1:]) or "")
+        load_commands((module,) if module is not None else MODULES)
+        from ._app import app
+    except KeyboardInterrupt:
+        print("\ninterrupted", file=sys.stderr)
+        raise SystemExit(130) from None
     app()
 
 

@@ -23,8 +23,28 @@ class _Commands(TyperGroup):
             typer.echo("\ninterrupted", err=True)
             raise typer.Exit(EXIT_INTERRUPTED) from None
         except Exception as err:
+            if _from_interrupt(err):  # e.g. a compiled call's SystemError around a Ctrl-C
+                typer.echo("\ninterrupted", err=True)
+                raise typer.Exit(EXIT_INTERRUPTED) from None
             exit_for(err)
             raise
+
+
+def _from_interrupt(err: BaseException) -> bool:
+    """Whether ``err`` was raised because of a Ctrl-C: a KeyboardInterrupt among its causes or
+    contexts (a numba dispatcher interrupted while it loads a kernel raises SystemError
+    "returned a result with an exception set" with the KeyboardInterrupt in that chain)."""
+    seen: set[int] = set()
+    todo: list[BaseException | None] = [err.__cause__, err.__context__]
+    while todo:
+        e = todo.pop()
+        if e is None or id(e) in seen:
+            continue
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        todo += [e.__cause__, e.__context__]
+    return False
 
 
 def _flag_type(self: TyperOption, ctx: Any) -> str | None:
