@@ -85,8 +85,10 @@ def main() -> None:
         load_commands((module,) if module is not None else MODULES)
         from ._app import app
     except KeyboardInterrupt:
-        print("\ninterrupted", file=sys.stderr)
-        raise SystemExit(130) from None
+        from ._common import EXIT_INTERRUPTED, INTERRUPTED_LINE
+
+        print(INTERRUPTED_LINE, file=sys.stderr)
+        raise SystemExit(EXIT_INTERRUPTED) from None
     app()
 
 

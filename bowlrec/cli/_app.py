@@ -8,7 +8,7 @@ from typing import Annotated, Any
 import typer
 from typer.core import TyperGroup, TyperOption
 
-from bowlrec.cli._common import EXIT_INTERRUPTED, exit_for
+from bowlrec.cli._common import EXIT_INTERRUPTED, INTERRUPTED_LINE, exit_for
 
 
 class _Commands(TyperGroup):
@@ -19,12 +19,10 @@ class _Commands(TyperGroup):
     def invoke(self, ctx: Any) -> Any:  # typer's bundled click.Context
         try:
             return super().invoke(ctx)
-        except KeyboardInterrupt:
-            typer.echo("\ninterrupted", err=True)
-            raise typer.Exit(EXIT_INTERRUPTED) from None
-        except Exception as err:
-            if _from_interrupt(err):  # e.g. a compiled call's SystemError around a Ctrl-C
-                typer.echo("\ninterrupted", err=True)
+        except (KeyboardInterrupt, Exception) as err:
+            # a Ctrl-C, or what a compiled call made of one (a SystemError around it)
+            if isinstance(err, KeyboardInterrupt) or _from_interrupt(err):
+                typer.echo(INTERRUPTED_LINE, err=True)
                 raise typer.Exit(EXIT_INTERRUPTED) from None
             exit_for(err)
             raise

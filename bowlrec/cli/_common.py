@@ -67,6 +67,8 @@ def fail(message: str, code: int = 2) -> NoReturn:
 
 #: exit code after Ctrl-C (128 + SIGINT), as shells report it
 EXIT_INTERRUPTED = 130
+#: what a Ctrl-C that no command handles itself prints (on stderr)
+INTERRUPTED_LINE = "\ninterrupted"
 
 #: the exit code of each category of error (the first category an error belongs to): 2 for
 #: what the command line asked that cannot be done as asked (fix the input or the request),
