@@ -14,7 +14,14 @@ from bowlrec.cli._common import EXIT_INTERRUPTED, INTERRUPTED_LINE, exit_for
 class _Commands(TyperGroup):
     """The command group: an error raised by any command (sub-commands included) goes through
     :func:`bowlrec.cli._common.exit_for`, the one place errors become exit codes; a Ctrl-C
-    that no command handles itself ends with one line and status 130 (128 + SIGINT)."""
+    that no command handles itself ends with one line and status 130 (128 + SIGINT), also while
+    the command line is parsed (where typer itself would exit 130 without a word)."""
+
+    def make_context(self, *args: Any, **kwargs: Any) -> Any:
+        try:  # typer imports its parameter types (pydantic) while it parses the command line
+            return super().make_context(*args, **kwargs)
+        except KeyboardInterrupt:
+            raise _interrupted() from None
 
     def invoke(self, ctx: Any) -> Any:  # typer's bundled click.Context
         try:
@@ -22,10 +29,15 @@ class _Commands(TyperGroup):
         except (KeyboardInterrupt, Exception) as err:
             # a Ctrl-C, or what a compiled call made of one (a SystemError around it)
             if isinstance(err, KeyboardInterrupt) or _from_interrupt(err):
-                typer.echo(INTERRUPTED_LINE, err=True)
-                raise typer.Exit(EXIT_INTERRUPTED) from None
+                raise _interrupted() from None
             exit_for(err)
             raise
+
+
+def _interrupted() -> typer.Exit:
+    """Print the one line a Ctrl-C ends a command with; the exit that ends it with 130."""
+    typer.echo(INTERRUPTED_LINE, err=True)
+    return typer.Exit(EXIT_INTERRUPTED)
 
 
 def _from_interrupt(err: BaseException) -> bool:
