@@ -281,7 +281,7 @@ def recorded_costs(n: int = 200) -> dict[str, float]:
     from bowlrec.archive import Archive, SegmentBuilder
     from bowlrec.archive.ball_files import ball_sha
     from bowlrec.archive.segment import RunRecord
-    from bowlrec.archive.segment_file import write_segment
+    from bowlrec.archive.segment_file import lz4_filters, write_segment
     from bowlrec.archive.writing import pattern_label
     from bowlrec.batch import job_context
     from bowlrec.batch.fastprep import FastSweep
@@ -336,6 +336,7 @@ def recorded_costs(n: int = 200) -> dict[str, float]:
     t = time.process_time()
     columns = builder.columns()
     t = clock("columns", t)
+    lz4_filters()  # a worker registers the Blosc filter (imports hdf5plugin) once, not per run
     with tempfile.TemporaryDirectory(dir=ROOT) as tmp_name:
         tmp = Path(tmp_name)
         for f in RECORDED_FILTERS:

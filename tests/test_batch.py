@@ -440,3 +440,32 @@ def test_cli_reports_an_invalid_job(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["batch", str(job), "-a", str(tmp_path / "a")])
     assert res.exit_code == 2
     assert "delivery.speed" in res.output and "speed_mps" in res.output
+
+
+@pytest.mark.parametrize("worker_writes", ["yes", "no"])
+def test_recorded_chunks_grow_where_workers_seal_them(tmp_path: Path, worker_writes: str) -> None:
+    """Recorded runs go in chunks sized by time like the others (one segment each) when the
+    workers seal them; workers that ship their records back get chunks of at most 32 runs (a
+    shipped chunk's samples are held whole). 300 short runs (~1 ms each) on one worker: chunks
+    of 4, 16, 64 and more when sealed; 4, 16, then 32 when shipped."""
+    import h5py
+
+    job = JobSpec.model_validate(
+        {
+            "base": {"options": {"record": "rate", "record_dt_s": 0.05}},
+            "sweep": {
+                "kind": "grid",
+                "axes": {"delivery.speed_mps": {"start": 7.0, "stop": 8.0, "num": 300}},
+            },
+            "record": "trajectory",
+        }
+    )
+    archive = Archive(tmp_path / "a")
+    result = run_job(job, archive, workers=0, worker_writes=worker_writes)
+    assert result.counts["ok"] == 300
+    sizes = []
+    for path in archive.segments_dir.glob("*.h5"):
+        with h5py.File(path, "r") as f:
+            sizes.append(int(f.attrs["n_runs"]))
+    assert sum(sizes) == 300
+    assert max(sizes) > 32 if worker_writes == "yes" else max(sizes) == 32

@@ -70,9 +70,16 @@ __all__ = [
     "run_job",
 ]
 
-#: runs per chunk at most: summary-only and recorded jobs
+#: runs per chunk at most: summary-only and recorded jobs. A chunk is sized by time below its
+#: cap (``spans``); a recorded chunk seals its samples as one segment (a worker holding
+#: ``chunks.SEAL_SAMPLES`` samples seals before the chunk ends, which bounds its memory), so a
+#: segment's fixed costs (its HDF5 datasets, digests, fsyncs and index transaction) are shared by
+#: the few hundred 1 ms runs a 0.5 s chunk holds (benchmarks/results/pipeline.md)
 SUMMARY_CHUNK = 16384
-RECORDED_CHUNK = 32
+RECORDED_CHUNK = 1024
+#: the recorded cap when workers may ship their records back (``worker_writes`` "no" or "auto"
+#: on a cluster): a shipped chunk's samples travel and are held whole
+SHIPPED_RECORDED_CHUNK = 32
 
 
 def _worker_init(line: Lifeline | None = None) -> None:
@@ -253,8 +260,13 @@ def param_columns(job: JobSpec) -> list[str]:
     return list(cols)
 
 
-def _default_chunk(job: JobSpec, total: int, parallel: int) -> int:
-    cap = SUMMARY_CHUNK if job.record == "summary" else RECORDED_CHUNK
+def _default_chunk(job: JobSpec, total: int, parallel: int, shipped: bool = False) -> int:
+    """The largest chunk of a job of ``total`` runs on ``parallel`` workers (at least 4 chunks
+    a worker); ``shipped``: workers may ship recorded runs back instead of sealing them."""
+    if job.record == "summary":
+        cap = SUMMARY_CHUNK
+    else:
+        cap = SHIPPED_RECORDED_CHUNK if shipped else RECORDED_CHUNK
     return max(1, min(cap, math.ceil(total / (4 * parallel))))
 
 
@@ -437,7 +449,8 @@ def run_job(
     ``workers``: local processes (None: all cores; 0: this process); ``scheduler``: a
     dask.distributed address (``tcp://host:port``) instead; ``executor``: any
     concurrent.futures Executor instead of both (kept open). ``chunk_size``: runs per task
-    (default: up to 16,384 summary-only or 32 recorded runs, at least 4 tasks per worker).
+    (default: up to 16,384 summary-only or 1,024 recorded runs, 32 when workers may ship them
+    back; at least 4 tasks per worker).
     ``progress`` is called from this thread after every chunk; setting ``cancel`` stops the
     batch after the chunks in flight (their runs are kept). ``worker_writes``: "yes" workers
     seal segments, "no" they ship records back, "auto" (default) workers write when they see
@@ -500,7 +513,8 @@ def _drive(
     cancel: threading.Event,
 ) -> None:
     total = orch.total
-    cap = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel)
+    shipped = orch.target is not None and orch.target.mode != "yes"
+    cap = chunk_size or _default_chunk(orch.ctx.job, total, workers.parallel, shipped)
     summary = orch.ctx.job.record == "summary"
     ranges = Spans(
         total,
