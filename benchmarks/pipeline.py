@@ -645,25 +645,19 @@ def targets(d: dict[str, Any]) -> list[dict[str, Any]]:
             "%",
         )
     )
-    for r in d["recorded"]:
-        out.append(
-            _target(
-                f"recorded_{r['samples']}_rate",
-                f"recorded at 1 ms, samples {r['samples']}: runs/s on 2 workers",
-                r["steady_per_s"],
-                1000.0,
-                "/s",
-            )
+    for r in d["recorded"]:  # the target: 1,000 runs/s or 80 % of the disk-bound rate
+        rate = _target(
+            f"recorded_{r['samples']}",
+            f"recorded at 1 ms, samples {r['samples']}: runs/s on 2 workers, or % of the "
+            "disk-bound rate",
+            r["steady_per_s"],
+            1000.0,
+            "/s",
         )
-        out.append(
-            _target(
-                f"recorded_{r['samples']}_disk",
-                f"recorded at 1 ms, samples {r['samples']}: % of the disk-bound rate",
-                r["pct_of_disk"],
-                80.0,
-                "%",
-            )
-        )
+        disk = _target("", "", r["pct_of_disk"], 80.0, "%")
+        rate["or"] = {k: disk[k] for k in ("limit", "unit", "measured", "met")}
+        rate["met"] = rate["met"] or disk["met"]
+        out.append(rate)
     s = d["service"]
     out.append(
         _target(
@@ -689,10 +683,12 @@ def targets(d: dict[str, Any]) -> list[dict[str, Any]]:
 def targets_table(d: dict[str, Any]) -> str:
     lines = ["| target | limit | measured | met |", "|---|---:|---:|---:|"]
     for t in d["targets"]:
-        lines.append(
-            f"| {t['what']} | >= {t['limit']:,.0f} {t['unit']} | {t['measured']:,.1f} "
-            f"{t['unit']} | {'yes' if t['met'] else 'no'} |"
-        )
+        limit, measured = f">= {t['limit']:,.0f} {t['unit']}", f"{t['measured']:,.1f} {t['unit']}"
+        if "or" in t:  # either limit meets the target
+            o = t["or"]
+            limit += f" or >= {o['limit']:,.0f} {o['unit']}"
+            measured += f", {o['measured']:,.1f} {o['unit']}"
+        lines.append(f"| {t['what']} | {limit} | {measured} | {'yes' if t['met'] else 'no'} |")
     return "\n".join(lines) + "\n"
 
 
