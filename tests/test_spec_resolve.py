@@ -177,3 +177,33 @@ def test_ball_and_lane_numbers() -> None:
     np.testing.assert_array_equal(plan.inertia_per_mass_m2, np.square([0.06, 0.065, 0.065]))
     assert plan.lane_length_m == 18.0 and plan.lane_width_m == 1.05
     assert not plan.scalar_inertia
+
+
+_finite = st.floats(min_value=-1e12, max_value=1e12, allow_nan=False).filter(lambda x: x != 0.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(_finite, min_size=3, max_size=3), st.lists(_finite, min_size=3, max_size=3))
+def test_the_frame_helpers_give_numpys_bits(a: list[float], b: list[float]) -> None:
+    """rotation._norm and rotation._cross stand in for np.linalg.norm and np.cross on
+    float64 3-vectors (a resolved Plan, and so every run ID, depends on their bits): the same
+    bits on any finite vectors."""
+    from bowlrec.spec.rotation import _cross, _norm
+
+    u, v = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    assert _norm(u).tobytes() == np.linalg.norm(u).tobytes()
+    assert _cross(u, v).tobytes() == np.cross(u, v).tobytes()
+
+
+def test_canonical_float_arrays_hash_each_element_exactly() -> None:
+    """The canonical form of a float64 array is each element's float.hex() (the fast path for
+    float arrays); other arrays go element by element."""
+    from bowlrec.archive.run_id import _canonical
+
+    values = np.array([[0.1, -0.0], [1e-310, 2.0**60]])
+    assert _canonical(values) == {
+        "shape": [2, 2],
+        "data": [float(x).hex() for x in values.ravel()],
+    }
+    assert _canonical(np.array([1, 2], dtype=np.int64)) == {"shape": [2], "data": [1, 2]}
+    assert _canonical(np.float64(0.5)) == _canonical(0.5) == (0.5).hex()

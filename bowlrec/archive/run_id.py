@@ -25,6 +25,8 @@ RUN_ID_LENGTH = 20
 
 
 def _canonical(value: Any) -> Any:
+    if type(value) is float:  # the common case first: what the float branch below gives
+        return value.hex()
     import numpy as np
 
     from bowlrec.core.plan import PinPlan
@@ -35,7 +37,11 @@ def _canonical(value: Any) -> Any:
         return [_canonical(v) for v in value]
 
     if isinstance(value, np.ndarray):
-        return {"shape": list(value.shape), "data": [_canonical(v) for v in value.ravel()]}
+        if value.dtype == np.float64:  # each element's float(v).hex(), as below, in one pass
+            data = [v.hex() for v in value.ravel().tolist()]
+        else:
+            data = [_canonical(v) for v in value.ravel()]
+        return {"shape": list(value.shape), "data": data}
     if isinstance(value, float | np.floating):
         return float(value).hex()
     if isinstance(value, bool | np.bool_):

@@ -17,7 +17,9 @@ Conventions (the paper's, Frohlich 2004):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -172,11 +174,17 @@ class Plan:
         return bool(np.all(self.friction_mu == self.friction_mu.flat[0]))
 
 
+@functools.cache
+def _defaults() -> dict[str, Any]:
+    """Each Plan field's default (``dataclasses.MISSING`` where it has none)."""
+    return {f.name: f.default for f in fields(Plan)}
+
+
 def external_field_at_default(plan: Plan, name: str) -> bool:
     """True when ``name`` is one of :data:`EXTERNAL_FIELDS` and ``plan`` has its default."""
     if name not in EXTERNAL_FIELDS:
         return False
-    default = {f.name: f.default for f in fields(Plan)}[name]
+    default = _defaults()[name]
     value = getattr(plan, name)
     if value is None or default is None:
         return value is None and default is None

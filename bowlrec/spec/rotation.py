@@ -23,6 +23,21 @@ Array = NDArray[np.float64]
 _SAFE_MIN, _SAFE_MAX = 1e-150, 1e150
 
 
+def _norm(a: Array) -> np.float64:
+    """|a| of a float64 vector, computed as ``np.linalg.norm`` computes it (the square root of
+    ``a.dot(a)``: the same bits) without its argument handling, which costs several times more
+    for a 3-vector."""
+    return np.sqrt(a.dot(a))  # type: ignore[no-any-return]
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """a x b of two float64 3-vectors: each component one product minus another, rounded as
+    ``np.cross`` rounds them (the same bits), without its array set-up."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
+
+
 def normalized(v: Sequence[float] | Array) -> Array:
     """``v / |v|`` as float64 (the caller guarantees |v| > 0). A vector whose largest
     component is beyond 1e150 or below 1e-150 in magnitude is first divided by it, so that
@@ -31,7 +46,7 @@ def normalized(v: Sequence[float] | Array) -> Array:
     largest = float(np.max(np.abs(a)))
     if not _SAFE_MIN < largest < _SAFE_MAX:
         a = a / largest
-    return a / np.linalg.norm(a)
+    return a / _norm(a)
 
 
 def perpendicular(a: Sequence[float] | Array) -> Array:
@@ -57,8 +72,8 @@ def frame_from_axes(
     else:
         b = np.asarray(axis_2, dtype=np.float64)
         a2 = normalized(b - np.dot(b, a1) * a1)
-    a3 = np.cross(a1, a2)
-    return np.column_stack([a1, a2, a3 / np.linalg.norm(a3)])
+    a3 = _cross(a1, a2)
+    return np.column_stack([a1, a2, a3 / _norm(a3)])
 
 
 def matrix_to_quaternion(r: Array) -> Array:
