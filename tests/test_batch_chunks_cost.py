@@ -122,3 +122,14 @@ def test_index_rows_inserted_with_null_columns_equal_rows_bound_one_by_one(
         tables.append(con.execute("SELECT * FROM runs ORDER BY seq").fetchall())
     assert len(tables[1]) == 50
     assert tables[0] == tables[1]
+
+
+@pytest.mark.parametrize("value", ["", "a", "case16-sweep", "Kugel ü 🎳"])
+@pytest.mark.parametrize("n", [0, 1, 7])
+def test_a_shared_string_column_is_the_column_of_its_values(value: str, n: int) -> None:
+    """A segment's column of one string repeated (the fast path of a batch's segment) has the
+    dtype and bytes of the column built value by value."""
+    from bowlrec.archive.segment import _repeated, _strings
+
+    fast, plain = _repeated(value, n), _strings([value] * n)
+    assert fast.dtype == plain.dtype and fast.tobytes() == plain.tobytes()

@@ -148,6 +148,14 @@ def _strings(values: Iterable[str]) -> NDArray[np.bytes_]:
     return np.array(encoded, dtype=np.bytes_)  # numpy picks the longest entry's width
 
 
+def _repeated(value: str, n: int) -> NDArray[np.bytes_]:
+    """``_strings([value] * n)``, encoding ``value`` once (a column a batch's runs share)."""
+    if n == 0:
+        return _strings(())
+    encoded = value.encode()
+    return np.full(n, encoded, dtype=f"S{max(1, len(encoded))}")
+
+
 def _concat(chunks: Sequence[bytes]) -> tuple[NDArray[np.uint8], NDArray[np.int64]]:
     offsets = np.zeros(len(chunks) + 1, dtype=np.int64)
     np.cumsum([len(c) for c in chunks], out=offsets[1:])
@@ -391,7 +399,7 @@ class SummaryRuns:
         runs: dict[str, NDArray[Any]] = {}
         for name in RUN_STRING_COLUMNS:
             v = self.strings[name]
-            runs[name] = _strings([v] * n if isinstance(v, str) else v)
+            runs[name] = _repeated(v, n) if isinstance(v, str) else _strings(v)
         for name in RUN_FLOAT_COLUMNS:
             runs[name] = np.asarray(self.floats[name], dtype=np.float64)
         runs["created_at_ns"] = np.full(n, self.created_at_ns // 1000 * 1000, dtype=np.int64)
