@@ -115,3 +115,36 @@ def test_datasets_read_back_as_written(tmp_path: Path) -> None:
         for name, data in arrays.items():
             assert f[name].dtype == data.dtype and np.array_equal(f[name][()], data)
         assert f["chunked"].compression == "gzip" and f["f8"].chunks is None
+
+
+def test_read_whole_reads_what_the_high_level_api_reads(tmp_path: Path) -> None:
+    """read_whole gives the dtype, shape and bytes of ``group[name][()]`` for every kind of
+    dataset a segment holds (and falls back for the others)."""
+    datasets: dict[str, Any] = {
+        "f8": np.linspace(0.0, 1.0, 7),
+        "i8_2d": np.arange(12, dtype=np.int64).reshape(4, 3),
+        "u1": np.arange(5, dtype=np.uint8),
+        "bytes": np.array([b"pins", b"gutter", b""], dtype="S6"),
+        "bool": np.array([True, False, True]),
+        "empty": np.zeros((0, 3)),
+        "scalar": np.float64(2.5),
+        "big_endian": np.arange(3, dtype=">f8"),
+    }
+    path = tmp_path / "r.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("g")
+        for name, data in datasets.items():
+            g.create_dataset(name, data=data)
+        g.create_dataset("gzip", data=np.arange(5000.0), chunks=(1000,), compression="gzip")
+        g.create_dataset("vlen", data=["a", "bc"], dtype=h5py.string_dtype())
+    with h5py.File(path, "r") as f:
+        for name in [*datasets, "gzip", "vlen"]:
+            fast_read, plain = fast.read_whole(f["g"], name), f["g"][name][()]
+            assert isinstance(fast_read, np.ndarray) == isinstance(plain, np.ndarray), name
+            a, b = np.asarray(fast_read), np.asarray(plain)
+            assert a.dtype == b.dtype and a.shape == b.shape, name
+            if a.dtype != object:
+                assert a.tobytes() == b.tobytes(), name
+            else:
+                assert a.tolist() == b.tolist()
+        assert fast.read_whole(f, "g/f8").tolist() == datasets["f8"].tolist()  # a path

@@ -20,7 +20,7 @@ import numpy as np
 from h5py import h5a, h5d, h5p, h5s, h5t
 from numpy.typing import NDArray
 
-__all__ = ["new_dataset", "set_attr"]
+__all__ = ["new_dataset", "read_whole", "set_attr"]
 
 #: dataset dtype kinds written through the low-level path: numbers and fixed-length bytes
 _PLAIN_KINDS = frozenset("biufS")
@@ -53,6 +53,22 @@ def new_dataset(
     dataset = h5d.create(group.id, name.encode(), _file_type(data.dtype), space, dcpl=_plain_dcpl())
     dataset.write(h5s.ALL, h5s.ALL, data)
     return h5py.Dataset(dataset)
+
+
+def read_whole(group: h5py.Group, name: str) -> NDArray[Any]:
+    """``group[name][()]``, quicker for a dataset of numbers or fixed-length bytes: read into
+    an array of its own dtype and shape, without h5py's Dataset object (its selection and
+    reader set-up cost more than reading a small dataset). Anything else (variable-length or
+    compound types, an empty dataspace) is read by the high-level API."""
+    dataset = h5d.open(group.id, name.encode())
+    dtype = dataset.dtype
+    shape = dataset.get_space().shape
+    if shape is None or dtype.kind not in _PLAIN_KINDS or dtype.hasobject:
+        return group[name][()]  # type: ignore[no-any-return]
+    out = np.empty(shape, dtype=dtype)
+    if out.size:
+        dataset.read(h5s.ALL, h5s.ALL, out)
+    return out if out.ndim else out[()]  # a scalar dataspace reads as a NumPy scalar
 
 
 @functools.cache

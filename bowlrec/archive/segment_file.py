@@ -32,7 +32,7 @@ from bowlrec.units import DIMENSIONLESS, units_for
 
 from . import faults
 from .derived import DERIVED_FIELDS, derived_samples
-from .hdf5_objects import new_dataset, set_attr
+from .hdf5_objects import new_dataset, read_whole, set_attr
 from .pin_records import pin_index_columns
 from .scene_store import scene_text
 from .segment_format import (
@@ -473,13 +473,13 @@ class SegmentFile:
             cols: dict[str, dict[str, NDArray[Any]]] = {}
             for group in ("runs", "summary"):
                 g = self._f[group]
-                cols[group] = {name: g[name][()] for name in g if name not in _VARIABLE}
+                cols[group] = {name: read_whole(g, name) for name in g if name not in _VARIABLE}
             scene_offsets = "scene/override_offsets" if self.blocks else "runs/scene_json_offsets"
             cols["offsets"] = {
-                "scene_json": self._f[scene_offsets][()],
-                "message": self._f["summary/message_offsets"][()],
+                "scene_json": read_whole(self._f, scene_offsets),
+                "message": read_whole(self._f, "summary/message_offsets"),
                 **{
-                    g: self._f[g]["offsets"][()]
+                    g: read_whole(self._f[g], "offsets")
                     for g in self._f
                     if isinstance(self._f[g], h5py.Group) and "offsets" in self._f[g]
                 },
