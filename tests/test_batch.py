@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from helpers.scene_builders import recorded_speed_job
 
 from bowlrec.archive import Archive
 from bowlrec.batch import (
@@ -450,16 +451,7 @@ def test_recorded_chunks_grow_where_workers_seal_them(tmp_path: Path, worker_wri
     of 4, 16, 64 and more when sealed; 4, 16, then 32 when shipped."""
     import h5py
 
-    job = JobSpec.model_validate(
-        {
-            "base": {"options": {"record": "rate", "record_dt_s": 0.05}},
-            "sweep": {
-                "kind": "grid",
-                "axes": {"delivery.speed_mps": {"start": 7.0, "stop": 8.0, "num": 300}},
-            },
-            "record": "trajectory",
-        }
-    )
+    job = JobSpec.model_validate(recorded_speed_job(300, 0.05))
     archive = Archive(tmp_path / "a")
     result = run_job(job, archive, workers=0, worker_writes=worker_writes)
     assert result.counts["ok"] == 300

@@ -15,6 +15,7 @@ from typing import Any, get_args
 
 import numpy as np
 import pytest
+from helpers.scene_builders import recorded_speed_job
 from pydantic import ValidationError
 from typer.testing import CliRunner
 
@@ -461,16 +462,7 @@ def test_a_chunk_of_recorded_runs_seals_as_its_samples_add_up(
     from bowlrec.batch import chunks, run_job
 
     monkeypatch.setattr(chunks, "SEAL_SAMPLES", 1200)
-    job = JobSpec.model_validate(
-        {
-            "base": {"options": {"record": "rate", "record_dt_s": 0.005}},
-            "sweep": {
-                "kind": "grid",
-                "axes": {"delivery.speed_mps": {"start": 7.0, "stop": 8.0, "num": 8}},
-            },
-            "record": "trajectory",
-        }
-    )
+    job = JobSpec.model_validate(recorded_speed_job(8, 0.005))
     archive = Archive(tmp_path / "a")
     result = run_job(job, archive, workers=0, chunk_size=8)
     assert result.counts["ok"] == 8

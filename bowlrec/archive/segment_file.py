@@ -479,7 +479,7 @@ class SegmentFile:
                 "scene_json": read_whole(self._f, scene_offsets),
                 "message": read_whole(self._f, "summary/message_offsets"),
                 **{
-                    g: read_whole(self._f[g], "offsets")
+                    g: read_whole(self._f, f"{g}/offsets")
                     for g in self._f
                     if isinstance(self._f[g], h5py.Group) and "offsets" in self._f[g]
                 },

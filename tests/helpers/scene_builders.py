@@ -1,6 +1,6 @@
 """Scene dictionaries for tests: a uniform-ish ball on a constant-friction lane by default,
 every field overridable (SI units: m, m/s, rad/s, degrees for the take-off angle); the service
-tests' summary-only and sampled scenes."""
+tests' summary-only and sampled scenes; a recorded grid job."""
 
 from __future__ import annotations
 
@@ -55,4 +55,17 @@ def sampled_scene() -> dict[str, Any]:
         "name": "sampled",
         "delivery": {"speed_mps": 8.0, "omega_radps": [-16.62, 23.74, 7.765]},
         "options": {"record": "rate", "record_dt_s": 0.01},
+    }
+
+
+def recorded_speed_job(n: int, record_dt_s: float) -> dict[str, Any]:
+    """A job of ``n`` default deliveries at speeds 7-8 m/s, each recorded every
+    ``record_dt_s`` s and archived with its samples."""
+    return {
+        "base": {"options": {"record": "rate", "record_dt_s": record_dt_s}},
+        "sweep": {
+            "kind": "grid",
+            "axes": {"delivery.speed_mps": {"start": 7.0, "stop": 8.0, "num": n}},
+        },
+        "record": "trajectory",
     }
