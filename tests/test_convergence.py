@@ -3,26 +3,27 @@ where the exact answer is known (the uniform-ball cases: the closed form) the in
 default tolerance reproduces it.
 
 The tolerances are a small factor above what is measured, so that a real loss of accuracy fails
-(a looser default rtol, a wrong Dormand-Prince coefficient, an event located late), not only a
+(a looser default rtol, a wrong Runge-Kutta coefficient, an event located late), not only a
 gross one. Measured at the default rtol 1e-9 over the 12 cases that integrate (Table III cases
 2-5, 10-12, 14-18), largest |default - rtol/100| differences:
 
 =========  ==========  ======================  =========
 quantity   measured    case                    tolerance
 =========  ==========  ======================  =========
-hook       1.3e-10 m   12                      3e-9 m
-pocket     4.5e-8 deg  18 (stick-slip)         1e-6 deg
-slide      4.7e-8 m    18 (stick-slip)         1e-6 m
-time       4.6e-11 s   18 (stick-slip)         1e-9 s
+hook       6.6e-11 m   12                      3e-9 m
+pocket     1.6e-9 deg  16                      1e-7 deg
+slide      2.0e-8 m    5                       1e-6 m
+time       1.5e-11 s   2                       1e-9 s
 =========  ==========  ======================  =========
 
-(factors 20-25). For comparison, a default rtol of 1e-8 (10x looser) gives 1.0e-8 m of hook
-and 6.3e-6 m of slide (cases 18 and 5) and fails, where the previous tolerances (0.1 mm,
-0.001 deg, 1 us) passed even a default rtol of 1e-7 (100x looser: 3.6e-5 m of slide, 8.6e-6
-deg). The six uniform-ball cases (1, 6-9, 13) run the closed
+(factors 45-66; the metrics differ between platforms by ~1e-9 relative, ~2e-8 m of a 16 m
+slide, so the slide's is not tighter). For comparison, a default rtol of 1e-8 (10x looser)
+gives 1.3e-8 m of hook and 6.1e-6 m of slide (cases 18 and 5) and fails, where tolerances of
+0.1 mm, 0.001 deg and 1 us would pass even a default rtol of 1e-7 (100x looser: 3.6e-5 m of
+slide, 2.2e-7 deg). The six uniform-ball cases (1, 6-9, 13) run the closed
 form (``solve`` picks it), so comparing two tolerances there compares the closed form with itself;
-they instead compare the integrator at the default rtol with the closed form: measured 1.4e-14
-(m, deg, s), tolerance 1e-12 (the motion is piecewise polynomial, which Dormand-Prince integrates
+they instead compare the integrator at the default rtol with the closed form: measured 2.1e-14
+(m, deg, s), tolerance 1e-12 (the motion is piecewise polynomial, which a 5th-order pair integrates
 exactly, so only the location of the events and rounding remain).
 """
 
@@ -42,10 +43,10 @@ from bowlrec.spec import Options
 UNIFORM = (1, 6, 7, 8, 9, 13)
 INTEGRATED = tuple(c for c in range(1, 19) if c not in UNIFORM)
 
-#: default rtol against rtol / 100 (module docstring: measured 1.3e-10 m, 4.5e-8 deg, 4.7e-8 m,
-#: 4.6e-11 s)
-HOOK_M, POCKET_DEG, SLIDE_M, TIME_S = 3e-9, 1e-6, 1e-6, 1e-9
-#: integrator at the default rtol against the closed form (measured 1.4e-14 at most)
+#: default rtol against rtol / 100 (module docstring: measured 6.6e-11 m, 1.6e-9 deg, 2.0e-8 m,
+#: 1.5e-11 s)
+HOOK_M, POCKET_DEG, SLIDE_M, TIME_S = 3e-9, 1e-7, 1e-6, 1e-9
+#: integrator at the default rtol against the closed form (measured 2.1e-14 at most)
 EXACT = 1e-12
 
 

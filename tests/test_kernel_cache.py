@@ -42,7 +42,7 @@ def _names(paths: list[Path]) -> set[str]:
             {
                 "core/codes",
                 "core/contact",
-                "core/dopri5",
+                "core/tsit5",
                 "core/dynamics",
                 "core/events",
                 "core/observe",
@@ -91,7 +91,7 @@ def test_kernel_dependencies_follow_imports_transitively() -> None:
     assert deps["vec"] == {"core/vec"}
     assert deps["recording"] == {"core/recording", "core/codes"}
     assert deps["dynamics"] == {"core/dynamics", "core/codes", "core/vec"}
-    assert {"core/observe", "core/dopri5", "core/dynamics", "core/vec"} <= deps["integrator"]
+    assert {"core/observe", "core/tsit5", "core/dynamics", "core/vec"} <= deps["integrator"]
     # summary freezes trajectory's metric names; batch reaches the Python-only arguments (and
     # through summary, trajectory), not solver or outcome
     assert {"core/trajectory", "errors"} <= deps["summary"]

@@ -20,7 +20,7 @@ s = R_con x w - v = (R w_y - v_x, -R w_x - v_y)):
   is straight, w = (-v*_y/R, v*_x/R, w0_z).
 * Table III metrics: hook = y_pins - (y0 + (L - x0) v0_y / v0_x), pocket = atan2(v_y, v_x).
 
-The right-hand side is piecewise constant, so the Dormand-Prince steps reproduce these
+The right-hand side is piecewise constant, so the Runge-Kutta steps reproduce these
 polynomials to rounding and the slide->roll root is located to ~1e-15 in time; the only other
 errors are the rounding accumulated over ~10^3-10^4 steps (~1e-13). Tolerance: 1e-9 relative,
 with the observed agreement reported in the assertion messages.

@@ -15,12 +15,12 @@ import pytest
 
 from bowlrec.core.arguments import initial_state, kernel_params
 from bowlrec.core.codes import PHASE_SLIDE, RECORD_SUMMARY, SLIDE_TO_ROLL_EXACT
-from bowlrec.core.dopri5 import dense, dense_coeffs, stages
 from bowlrec.core.dynamics import P_SLAYER, radial_direction, rhs, roll_accel, slip, slip_rate
 from bowlrec.core.events import N_KINEMATIC, kinematic_values, may_cross
 from bowlrec.core.integrator import new_workspace
 from bowlrec.core.records import FrictionLaw, RunSettings
 from bowlrec.core.solver import solve
+from bowlrec.core.tsit5 import dense, dense_coeffs, stages
 from bowlrec.paper import paper_scene
 from bowlrec.testing.scenes import random_plans
 
@@ -164,7 +164,7 @@ def test_stick_slip_cases_agree_with_a_tight_reference_at_loose_tolerance(case: 
 
 
 def test_the_slips_error_control_holds_every_slide_end_of_the_benchmark() -> None:
-    """With the slip in the error norm (``dopri5.error_norm``) the slide -> roll point of the
+    """With the slip in the error norm (``tsit5.error_norm``) the slide -> roll point of the
     218 work-precision deliveries (those that roll in both runs) is within the benchmark's 1 mm
     of a rtol 1e-12 reference at rtol 2e-5, and within 20 mm at rtol 2e-4. Controlled only
     through v and w, the slip's error is ~10 rtol m/s and random002 (the slip lingers at mm/s

@@ -27,8 +27,8 @@ import math
 from numba import njit
 
 from .codes import PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, SLIDE_TO_ROLL_THRESHOLD
-from .dopri5 import N_STAGES, dense
 from .dynamics import rhs, slip
+from .tsit5 import N_STAGES, dense
 from .vec import NO_NRT
 
 G_X_HI, G_X_LO, G_Y_HI, G_Y_LO = 0, 1, 2, 3

@@ -1,9 +1,9 @@
 """Compiled adaptive integrator with event location: one delivery from release to an outcome.
 
-Method: Dormand-Prince 5(4) (FSAL, Hairer's step-size control with a PI factor; no growth right
+Method: Tsitouras' 5(4) pair (FSAL; Hairer's step-size control with a PI factor, no growth right
 after a rejected step, and a steeper cut when consecutive rejections show the error falling
 slower than h^5) and its 4th-order continuous extension for dense output. While the ball slides,
-the error norm counts the slip too, scaled by rtol * (0.03 m/s + |s|) (``dopri5.error_norm``):
+the error norm counts the slip too, scaled by rtol * (0.03 m/s + |s|) (``tsit5.error_norm``):
 where the slip decides the slide -> roll point its absolute error is held near the tolerance
 instead of ~10 rtol m/s. Events are located on
 the dense output by safeguarded regula falsi (Illinois) to ~1e-15 relative in time; the state at
@@ -48,7 +48,7 @@ rtol 1e-9, where against s_layer = 1e-8 m/s it moves hook, pocket and slide of c
 <= 4.6e-7 m, 3.2e-5 deg and 3.2e-8 m while taking 11-37x fewer right-hand sides).
 
 The parts live in their own modules: the method's tableau, stages, error and dense output in
-:mod:`~bowlrec.core.dopri5`, step-size control in :mod:`~bowlrec.core.step_control`, the event
+:mod:`~bowlrec.core.tsit5`, step-size control in :mod:`~bowlrec.core.step_control`, the event
 functions and root finding in :mod:`~bowlrec.core.events`, the sample and event tables in
 :mod:`~bowlrec.core.recording`, whether friction holds a rolling ball, the law at release and the
 slide -> roll impulse in :mod:`~bowlrec.core.contact`, and the records they pass in
@@ -100,15 +100,6 @@ from .codes import (
     STATUS_STOPPED,
 )
 from .contact import release_law, remove_slip, rolling_grip
-from .dopri5 import (
-    N_STAGES,
-    RHS_PER_STEP,
-    dense,
-    dense_coeffs,
-    dense_planar,
-    error_norm,
-    stages,
-)
 from .dynamics import P_G, P_QWEIGHT, P_R, P_SLAYER, rhs, slaved_direction, slip
 from .events import (
     G_CONTACT,
@@ -136,6 +127,15 @@ from .observe import observe_step, push_observation, start_watch, step_observed,
 from .recording import push_event, push_sample
 from .records import Advanced, Clock, FrictionLaw, RunSettings, Workspace
 from .step_control import LOG_1E_4, after_accept, after_reject, aim_at_slip_layer, initial_step
+from .tsit5 import (
+    N_STAGES,
+    RHS_PER_STEP,
+    dense,
+    dense_coeffs,
+    dense_planar,
+    error_norm,
+    stages,
+)
 from .vec import NO_NRT
 
 N_SCAN = 4  #: dense samples per step on which the event functions are scanned

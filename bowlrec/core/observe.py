@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from .codes import N_OBSCOL, N_STATE, OBS_STATE, OBS_T, OBS_TURN, OBS_WHAT, S_VY, S_X
-from .dopri5 import dense, dense_planar
+from .tsit5 import dense, dense_planar
 from .vec import NO_NRT
 
 #: bisection steps on one step's dense output (2**-60 of the step: below rounding)

@@ -15,8 +15,8 @@ import math
 from numba import njit
 
 from .codes import N_STATE, PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, S_QW, S_WX
-from .dopri5 import SLIP_SCALE_MPS
 from .dynamics import P_QWEIGHT, rhs, slip
+from .tsit5 import SLIP_SCALE_MPS
 from .vec import NO_NRT
 
 H_MAX = 0.1  #: largest step (s)
@@ -34,7 +34,7 @@ def initial_step(y, ws, law, run):  # type: ignore[no-untyped-def]
     """Starting step size (s) for y with ``ws.K[0]`` = f(y): Hairer's estimate (DOPRI5's
     ``hinit``), from |f| and a finite-difference second derivative (one extra right-hand side),
     in the same weighted norm as the error control (with the slip while sliding, as
-    ``dopri5.error_norm`` counts it), so that the first step's error is ~ the tolerance."""
+    ``tsit5.error_norm`` counts it), so that the first step's error is ~ the tolerance."""
     K = ws.K
     ytmp = ws.ytmp
     dtmp = ws.dtmp
@@ -50,7 +50,7 @@ def initial_step(y, ws, law, run):  # type: ignore[no-untyped-def]
         dnf += (w * K[0, i] / sc) ** 2
     sliding = law.phase != PHASE_ROLL
     if sliding:
-        # the slip as the error norm counts it (dopri5.error_norm)
+        # the slip as the error norm counts it (tsit5.error_norm)
         sx, sy = slip(y, par)
         sc_s = rtol * (SLIP_SCALE_MPS + math.sqrt(sx * sx + sy * sy))
         dsx, dsy = slip(K[0], par)

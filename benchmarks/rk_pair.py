@@ -1,27 +1,25 @@
-"""bowlrec's integrator with Tsitouras' 5(4) pair in place of Dormand-Prince's, side by side.
+"""bowlrec's integrator with Dormand-Prince's 5(4) pair in place of Tsitouras', side by side.
 
-    python -m benchmarks.tsit5_pair [--rounds 3] [--repeats 5]
+    python -m benchmarks.rk_pair [--rounds 3] [--repeats 5]
 
-Writes ``tsit5_pair.json`` and ``tsit5_pair.md`` into ``benchmarks/results``.
+Writes ``rk_pair.json`` and ``rk_pair.md`` into ``benchmarks/results``.
 
-What is measured (issue 32, item 1: "ideas worth measuring", before a method is adopted): the
-kernel is bowlrec's own, event handling, step control, slip layer and error norm unchanged,
-with only the Runge-Kutta pair swapped. The variant is a copy of the installed ``bowlrec``
-package in a scratch directory whose ``core/dopri5.py`` gets Tsitouras' tableau, embedded error
-weights and 4th-order continuous extension (Ch. Tsitouras, "Runge-Kutta pairs of order 5(4)
-satisfying only the first column simplifying assumption", Comput. Math. Appl. 62, 770 (2011);
-the double-precision coefficients as OrdinaryDiffEq.jl's ``Tsit5ConstantCache`` and
-``Tsit5Interp`` give them). Like Dormand-Prince's it has 7 stages, the last at the new point
-(first same as last), so a step costs 6 right-hand sides; unlike it, stage 2 enters the
-solution (a72 = 0.01) and the error estimate. Each variant runs in its own process (its own
-compiled kernels), the two alternating ``--rounds`` times.
+What is measured: the kernel is bowlrec's own, event handling, step control, slip layer and
+error norm unchanged, with only the Runge-Kutta pair swapped. bowlrec integrates with Tsitouras'
+5(4) pair (``bowlrec/core/tsit5.py``); the variant is a copy of the installed ``bowlrec`` package
+in a scratch directory whose ``core/tsit5.py`` gets Dormand-Prince's tableau, embedded error
+weights and 4th-order continuous extension (Hairer, Norsett and Wanner, "Solving Ordinary
+Differential Equations I", Sec. II.5-II.6; the coefficients of their DOPRI5 code), the method
+bowlrec used before. Both have 7 stages, the last at the new point (first same as last), so a
+step costs 6 right-hand sides. Each variant runs in its own process (its own compiled kernels),
+the two alternating ``--rounds`` times.
 
 On the work-precision benchmark's 218 deliveries (``table3_plans()`` + ``random_plans(200)``),
-summary only, one thread: errors against the work-precision reference (``_reference``:
-Dormand-Prince at rtol 1e-12, slip layer 1e-8 m/s), right-hand sides, and the median kernel
-time per delivery (``_time_bowlrec``: the median of ``--repeats`` calls of each delivery, in
-rounds over every tolerance and delivery); the time in the table is the median over rounds.
-The full-model targets are the work-precision benchmark's (``TARGETS``, ``TARGET_US``).
+summary only, one thread: errors against the work-precision reference (``_reference``: the
+shipped pair at rtol 1e-12, slip layer 1e-8 m/s), right-hand sides, and the median kernel time
+per delivery (``_time_bowlrec``: the median of ``--repeats`` calls of each delivery, in rounds
+over every tolerance and delivery); the time in the table is the median over rounds. The
+full-model targets are the work-precision benchmark's (``TARGETS``, ``TARGET_US``).
 """
 
 from __future__ import annotations
@@ -40,104 +38,61 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RTOLS = [1e-4, 5e-5, 3e-5, 2e-5, 1.5e-5, 1e-5, 1e-6, 1e-8]
-VARIANTS = ("Dormand-Prince 5(4)", "Tsitouras 5(4)")
+VARIANTS = ("Tsitouras 5(4)", "Dormand-Prince 5(4)")
+#: the lines of ``core/tsit5.py`` that are the method (the rest reads only these names)
+PAIR_START = "# --- the pair"
+PAIR_END = "# --- end of the pair ---"
 
-#: Tsitouras' pair (double precision): stage coefficients, error weights (b - b_hat) and the
-#: continuous extension b_i(theta) = R_i1 theta + R_i2 theta^2 + R_i3 theta^3 + R_i4 theta^4
-TSIT5_CONSTANTS = """\
-A21 = 0.161
-A31, A32 = -0.008480655492356989, 0.335480655492357
-A41, A42, A43 = 2.8971530571054935, -6.359448489975075, 4.3622954328695815
-A51, A52, A53, A54 = (
-    5.325864828439257, -11.748883564062828, 7.4955393428898365, -0.09249506636175525
-)
+#: Dormand-Prince's pair under the names ``core/tsit5.py`` reads: stage rows, the solution's
+#: weights (no stage 2: A72 = 0), error weights (E2 = 0) and Hairer's continuous extension
+#: y + theta D + theta (1 - theta) (h f(y) - D + theta (2 D - h f(y) - h f(ynew) + (1 - theta)
+#: h sum D_i K_i)) as the polynomial coefficients R_i2..R_i4 of b_i(theta)
+DP5_CONSTANTS = """\
+A21 = 0.2
+A31, A32 = 3.0 / 40.0, 9.0 / 40.0
+A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
+A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
 A61, A62, A63, A64, A65 = (
-    5.86145544294642, -12.92096931784711, 8.159367898576159, -0.071584973281401,
-    -0.028269050394068383,
+    9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0
 )
 A71, A72, A73, A74, A75, A76 = (
-    0.09646076681806523, 0.01, 0.4798896504144996, 1.379008574103742, -3.290069515436081,
-    2.324710524099774,
+    35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
 )
 E1, E2, E3, E4, E5, E6, E7 = (
-    -0.00178001105222577714, -0.0008164344596567469, 0.007880878010261995,
-    -0.1447110071732629, 0.5823571654525552, -0.45808210592918697, 0.015151515151515152,
+    71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0, 22.0 / 525.0,
+    -1.0 / 40.0,
 )
-R11, R12, R13, R14 = 1.0, -2.763706197274826, 2.9132554618219126, -1.0530884977290216
-R22, R23, R24 = 0.13169999999999998, -0.2234, 0.1017
-R32, R33, R34 = 3.9302962368947516, -5.941033872131505, 2.490627285651253
-R42, R43, R44 = -12.411077166933676, 30.33818863028232, -16.548102889244902
-R52, R53, R54 = 37.50931341651104, -88.1789048947664, 47.37952196281928
-R62, R63, R64 = -27.896526289197286, 65.09189467479366, -34.87065786149661
-R72, R73, R74 = 1.5, -4.0, 2.5
+_D = (
+    -12715105075.0 / 11282082432.0, 0.0, 87487479700.0 / 32700410799.0,
+    -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0,
+    -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0,
+)
+_B = (A71, A72, A73, A74, A75, A76, 0.0)
+_R4 = [d for d in _D]
+_R3 = [-2.0 * b - 2.0 * d + (1.0 if i in (0, 6) else 0.0) for i, (b, d) in enumerate(zip(_B, _D))]
+_R2 = [b - r3 - r4 - (1.0 if i == 0 else 0.0) for i, (b, r3, r4) in enumerate(zip(_B, _R3, _R4))]
+(R12, R22, R32, R42, R52, R62, R72) = _R2
+(R13, R23, R33, R43, R53, R63, R73) = _R3
+(R14, R24, R34, R44, R54, R64, R74) = _R4
 """
 
-TSIT5_DENSE = '''\
-@njit(cache=True, error_model="numpy", **NO_NRT)
-def dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
-    """The continuous extension as a polynomial in theta: rc[0] + theta (rc[1] + ...)."""
-    for i in range(N_STATE):
-        rc[0, i] = y[i]
-        rc[1, i] = h * (R11 * K[0, i])
-        rc[2, i] = h * (
-            R12 * K[0, i] + R22 * K[1, i] + R32 * K[2, i] + R42 * K[3, i] + R52 * K[4, i]
-            + R62 * K[5, i] + R72 * K[6, i]
-        )
-        rc[3, i] = h * (
-            R13 * K[0, i] + R23 * K[1, i] + R33 * K[2, i] + R43 * K[3, i] + R53 * K[4, i]
-            + R63 * K[5, i] + R73 * K[6, i]
-        )
-        rc[4, i] = h * (
-            R14 * K[0, i] + R24 * K[1, i] + R34 * K[2, i] + R44 * K[3, i] + R54 * K[4, i]
-            + R64 * K[5, i] + R74 * K[6, i]
-        )
 
-
-@njit(cache=True, error_model="numpy", **NO_NRT)
-def dense(rc, theta, out):  # type: ignore[no-untyped-def]
-    for i in range(N_STATE):
-        out[i] = rc[0, i] + theta * (
-            rc[1, i] + theta * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
-        )
-
-
-@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
-def dense_planar(rc, theta, out):  # type: ignore[no-untyped-def]
-    for i in (0, 1, 2, 3, 8, 9):
-        out[i] = rc[0, i] + theta * (
-            rc[1, i] + theta * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
-        )
-'''
-
-
-def _swap(text: str, old: str, new: str) -> str:
-    if text.count(old) != 1:
-        raise RuntimeError(f"core/dopri5.py changed: cannot find {old[:60]!r} once")
-    return text.replace(old, new)
-
-
-def tsit5_module(dopri5: str) -> str:
-    """The text of ``core/dopri5.py`` with Tsitouras' pair in place of Dormand-Prince's."""
-    start = dopri5.index("C2, C3, C4, C5 = ")
-    text = dopri5[:start] + TSIT5_CONSTANTS + dopri5[dopri5.index("N_STAGES = 7") :]
-    text = _swap(
-        text, "A71 * K[0, i] + A73 * K[2, i]", "A71 * K[0, i] + A72 * K[1, i] + A73 * K[2, i]"
-    )
-    text = _swap(text, "E1 * K[0, i] + E3 * K[2, i]", "E1 * K[0, i] + E2 * K[1, i] + E3 * K[2, i]")
-    return (
-        text[: text.index('@njit(cache=True, error_model="numpy", **NO_NRT)\ndef dense_coeffs')]
-        + TSIT5_DENSE
-    )
+def dp5_module(tsit5: str) -> str:
+    """The text of ``core/tsit5.py`` with Dormand-Prince's pair in place of Tsitouras'."""
+    if tsit5.count(PAIR_START) != 1 or tsit5.count(PAIR_END) != 1:
+        raise RuntimeError("core/tsit5.py changed: cannot find its pair's block once")
+    start = tsit5.index("\n", tsit5.index(PAIR_START)) + 1
+    return tsit5[:start] + DP5_CONSTANTS + tsit5[tsit5.index(PAIR_END) :]
 
 
 def build_variant(dst: Path) -> Path:
-    """A copy of the ``bowlrec`` package under ``dst`` with the Tsitouras pair; ``dst``."""
+    """A copy of the ``bowlrec`` package under ``dst`` with Dormand-Prince's pair; ``dst``."""
     import bowlrec
 
     package = Path(bowlrec.__file__).parent
     shutil.copytree(package, dst / "bowlrec", ignore=shutil.ignore_patterns("__pycache__"))
-    method = dst / "bowlrec" / "core" / "dopri5.py"
-    method.write_text(tsit5_module(method.read_text()))
+    method = dst / "bowlrec" / "core" / "tsit5.py"
+    method.write_text(dp5_module(method.read_text()))
     return dst
 
 
@@ -171,7 +126,7 @@ def _run(variant_root: Path, refs_path: Path, repeats: int) -> dict[str, Any]:
     """One variant's ladder in a fresh process whose ``bowlrec`` is the one at
     ``variant_root`` (the working directory comes first on its path)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    cmd = [sys.executable, "-m", "benchmarks.tsit5_pair", "--child", str(refs_path)]
+    cmd = [sys.executable, "-m", "benchmarks.rk_pair", "--child", str(refs_path)]
     cmd += ["--repeats", str(repeats)]
     done = subprocess.run(cmd, cwd=variant_root, env=env, capture_output=True, text=True)
     if done.returncode != 0:
@@ -192,7 +147,7 @@ def measure(rounds: int, repeats: int) -> dict[str, Any]:
         tmp = Path(tmp_name)
         refs_path = tmp / "refs.json"
         refs_path.write_text(json.dumps([_reference(p) for _, p in plans]))
-        roots = {VARIANTS[0]: ROOT, VARIANTS[1]: build_variant(tmp / "tsit5")}
+        roots = {VARIANTS[0]: ROOT, VARIANTS[1]: build_variant(tmp / "dp5")}
         runs: dict[str, list[dict[str, Any]]] = {v: [] for v in VARIANTS}
         for k in range(rounds):
             for variant in VARIANTS if k % 2 == 0 else VARIANTS[::-1]:
@@ -237,9 +192,9 @@ def measure(rounds: int, repeats: int) -> dict[str, Any]:
 
 def markdown(d: dict[str, Any]) -> str:
     lines = [
-        "# bowlrec's integrator with Tsitouras' 5(4) pair",
+        "# bowlrec's integrator: Tsitouras' 5(4) pair against Dormand-Prince's",
         "",
-        "`python -m benchmarks.tsit5_pair` (see its docstring): the kernel with only the "
+        "`python -m benchmarks.rk_pair` (see its docstring): the kernel with only the "
         f"Runge-Kutta pair swapped, {d['deliveries']} deliveries (18 Table III + 200 random), "
         "summary only, one thread; errors against the work-precision reference; time per "
         f"delivery the median of {d['repeats']} kernel calls, the median over deliveries, then "
@@ -258,14 +213,14 @@ def markdown(d: dict[str, Any]) -> str:
                 f"{r['time_median_us']:.1f} ({spread}) | {'yes' if r['meets_targets'] else 'no'} |"
             )
     t = d["targets"]
-    dp, ts = (d["cheapest"][v] for v in VARIANTS)
+    ts, dp = (d["cheapest"][v] for v in VARIANTS)
     lines += [
         "",
         f"Cheapest tolerance meeting hook <= {t['hook_mm']} mm, pocket <= {t['pocket_deg']} deg "
-        f"and slide <= {t['slide_mm']} mm on every delivery: {VARIANTS[0]} at rtol "
-        f"{dp['rtol']:g}, {dp['n_rhs_median']:g} right-hand sides and {dp['time_median_us']:.1f} "
-        f"us (median); {VARIANTS[1]} at rtol {ts['rtol']:g}, {ts['n_rhs_median']:g} right-hand "
-        f"sides and {ts['time_median_us']:.1f} us: "
+        f"and slide <= {t['slide_mm']} mm on every delivery: {VARIANTS[0]} (bowlrec's method) "
+        f"at rtol {ts['rtol']:g}, {ts['n_rhs_median']:g} right-hand sides and "
+        f"{ts['time_median_us']:.1f} us (median); {VARIANTS[1]} at rtol {dp['rtol']:g}, "
+        f"{dp['n_rhs_median']:g} right-hand sides and {dp['time_median_us']:.1f} us: "
         f"{dp['n_rhs_median'] / ts['n_rhs_median']:.2f}x fewer right-hand sides, "
         f"{dp['time_median_us'] / ts['time_median_us']:.2f}x the speed "
         f"(the work-precision target: {d['target_us']:.0f} us).",
@@ -286,8 +241,8 @@ def main() -> None:
         return
     data = measure(args.rounds, args.repeats)
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "tsit5_pair.json").write_text(json.dumps(data, indent=2) + "\n")
-    (args.out / "tsit5_pair.md").write_text(markdown(data))
+    (args.out / "rk_pair.json").write_text(json.dumps(data, indent=2) + "\n")
+    (args.out / "rk_pair.md").write_text(markdown(data))
     print(markdown(data))
 
 

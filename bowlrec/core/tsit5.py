@@ -1,10 +1,17 @@
-"""The Dormand-Prince 5(4) method: tableau, stages, embedded error and dense output.
+"""Tsitouras' 5(4) Runge-Kutta pair: tableau, stages, embedded error and dense output.
 
 One step from (t, y) with K[0] = f(y) computes stages 2..7 (FSAL: the 7th is f at the new point,
 the next step's K[0]), the 5th-order solution, the embedded 5th - 4th order error estimate and
-the 4th-order continuous extension (Hairer, Norsett and Wanner, "Solving Ordinary Differential
-Equations I", Sec. II.5-II.6; the coefficients of their DOPRI5 code). The right-hand side is
-:func:`bowlrec.core.dynamics.rhs` under a :class:`~bowlrec.core.records.FrictionLaw`.
+the 4th-order continuous extension: Ch. Tsitouras, "Runge-Kutta pairs of order 5(4) satisfying
+only the first column simplifying assumption", Comput. Math. Appl. 62, 770 (2011), with the
+double-precision coefficients as OrdinaryDiffEq.jl's ``Tsit5ConstantCache`` and ``Tsit5Interp``
+give them (``tests/test_tsit5.py`` checks them against the order conditions). Like
+Dormand-Prince 5(4) it has 7 stages, the last at the new point, so a step costs 6 right-hand
+sides; its principal error coefficients are smaller, and on the work-precision benchmark's
+deliveries it meets the same accuracy with fewer right-hand sides
+(``benchmarks/results/rk_pair.md``). The right-hand side is :func:`bowlrec.core.dynamics.rhs`
+under a :class:`~bowlrec.core.records.FrictionLaw`; the problem is autonomous, so the nodes
+c_i enter only through the stage rows.
 """
 
 from __future__ import annotations
@@ -17,41 +24,69 @@ from .codes import N_STATE, S_QW, S_WX
 from .dynamics import rhs
 from .vec import NO_NRT
 
-C2, C3, C4, C5 = 0.2, 0.3, 0.8, 8.0 / 9.0
-A21 = 0.2
-A31, A32 = 3.0 / 40.0, 9.0 / 40.0
-A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
+# --- the pair (the method is these constants: benchmarks/rk_pair.py swaps this block) ---
+#: stage rows a_ij (row i sums to c_i: 0.161, 0.327, 0.9, 0.98002554..., 1, 1)
+A21 = 0.161
+A31, A32 = -0.008480655492356989, 0.335480655492357
+A41, A42, A43 = 2.8971530571054935, -6.359448489975075, 4.3622954328695815
+A51, A52, A53, A54 = (
+    5.325864828439257,
+    -11.748883564062828,
+    7.4955393428898365,
+    -0.09249506636175525,
+)
 A61, A62, A63, A64, A65 = (
-    9017.0 / 3168.0,
-    -355.0 / 33.0,
-    46732.0 / 5247.0,
-    49.0 / 176.0,
-    -5103.0 / 18656.0,
+    5.86145544294642,
+    -12.92096931784711,
+    8.159367898576159,
+    -0.071584973281401,
+    -0.028269050394068383,
 )
-A71, A73, A74, A75, A76 = (
-    35.0 / 384.0,
-    500.0 / 1113.0,
-    125.0 / 192.0,
-    -2187.0 / 6784.0,
-    11.0 / 84.0,
+#: the 5th-order solution's weights b_i (stage 7 is evaluated at this point: FSAL)
+A71, A72, A73, A74, A75, A76 = (
+    0.09646076681806523,
+    0.01,
+    0.4798896504144996,
+    1.379008574103742,
+    -3.290069515436081,
+    2.324710524099774,
 )
-E1, E3, E4, E5, E6, E7 = (
-    71.0 / 57600.0,
-    -71.0 / 16695.0,
-    71.0 / 1920.0,
-    -17253.0 / 339200.0,
-    22.0 / 525.0,
-    -1.0 / 40.0,
+#: error weights b_i - b_hat_i (b_hat: the embedded 4th-order solution)
+E1, E2, E3, E4, E5, E6, E7 = (
+    -0.00178001105222577714,
+    -0.0008164344596567469,
+    0.007880878010261995,
+    -0.1447110071732629,
+    0.5823571654525552,
+    -0.45808210592918697,
+    0.015151515151515152,
 )
-D1, D3, D4, D5, D6, D7 = (
-    -12715105075.0 / 11282082432.0,
-    87487479700.0 / 32700410799.0,
-    -10690763975.0 / 1880347072.0,
-    701980252875.0 / 199316789632.0,
-    -1453857185.0 / 822651844.0,
-    69997945.0 / 29380423.0,
+#: continuous extension b_i(theta) = theta + R_i2 theta^2 + R_i3 theta^3 + R_i4 theta^4 for
+#: i = 1 and R_i2 theta^2 + R_i3 theta^3 + R_i4 theta^4 otherwise (b_i(1) = b_i)
+R12, R13, R14 = -2.763706197274826, 2.9132554618219126, -1.0530884977290216
+R22, R23, R24 = 0.13169999999999998, -0.2234, 0.1017
+R32, R33, R34 = 3.9302962368947516, -5.941033872131505, 2.490627285651253
+R42, R43, R44 = -12.411077166933676, 30.33818863028232, -16.548102889244902
+R52, R53, R54 = 37.50931341651104, -88.1789048947664, 47.37952196281928
+R62, R63, R64 = -27.896526289197286, 65.09189467479366, -34.87065786149661
+R72, R73, R74 = 1.5, -4.0, 2.5
+# --- end of the pair ---
+
+#: the extension as the kernel evaluates it: y(theta) = y + theta D + theta (1 - theta)
+#: (h f(y) - D + theta (U + theta V)) with D = ynew - y the step's increment,
+#: U = h sum U_i K_i and V = h sum V_i K_i; it passes through both ends of the step exactly and
+#: starts with slope f(y)
+U1, U2, U3, U4, U5, U6, U7 = (
+    -(R13 + R14),
+    -(R23 + R24),
+    -(R33 + R34),
+    -(R43 + R44),
+    -(R53 + R54),
+    -(R63 + R64),
+    -(R73 + R74),
 )
+V1, V2, V3, V4, V5, V6, V7 = -R14, -R24, -R34, -R44, -R54, -R64, -R74
+
 N_STAGES = 7
 #: right-hand sides one step evaluates (stages 2..7; the first is the last step's 7th)
 RHS_PER_STEP = 6
@@ -105,7 +140,12 @@ def stages(y, h, ws, law, run):  # type: ignore[no-untyped-def]
     mmin = min(mmin, r[1])
     for i in range(n):
         ynew[i] = y[i] + h * (
-            A71 * K[0, i] + A73 * K[2, i] + A74 * K[3, i] + A75 * K[4, i] + A76 * K[5, i]
+            A71 * K[0, i]
+            + A72 * K[1, i]
+            + A73 * K[2, i]
+            + A74 * K[3, i]
+            + A75 * K[4, i]
+            + A76 * K[5, i]
         )
     r = rhs(ynew, par, phase, mu, uxr, uyr, orient, K[6])
     nmin = min(nmin, r[0])
@@ -117,7 +157,13 @@ def stages(y, h, ws, law, run):  # type: ignore[no-untyped-def]
 def _embedded_error(K, h, i):  # type: ignore[no-untyped-def]
     """Component i of the embedded (5th - 4th order) error estimate of a step of size h."""
     return h * (
-        E1 * K[0, i] + E3 * K[2, i] + E4 * K[3, i] + E5 * K[4, i] + E6 * K[5, i] + E7 * K[6, i]
+        E1 * K[0, i]
+        + E2 * K[1, i]
+        + E3 * K[2, i]
+        + E4 * K[3, i]
+        + E5 * K[4, i]
+        + E6 * K[5, i]
+        + E7 * K[6, i]
     )
 
 
@@ -168,13 +214,26 @@ def dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
     """Coefficients ``rc`` (5, N_STATE) of the continuous extension of the step y -> ynew."""
     for i in range(N_STATE):
         ydiff = ynew[i] - y[i]
-        bspl = h * K[0, i] - ydiff
         rc[0, i] = y[i]
         rc[1, i] = ydiff
-        rc[2, i] = bspl
-        rc[3, i] = ydiff - h * K[6, i] - bspl
+        rc[2, i] = h * K[0, i] - ydiff
+        rc[3, i] = h * (
+            U1 * K[0, i]
+            + U2 * K[1, i]
+            + U3 * K[2, i]
+            + U4 * K[3, i]
+            + U5 * K[4, i]
+            + U6 * K[5, i]
+            + U7 * K[6, i]
+        )
         rc[4, i] = h * (
-            D1 * K[0, i] + D3 * K[2, i] + D4 * K[3, i] + D5 * K[4, i] + D6 * K[5, i] + D7 * K[6, i]
+            V1 * K[0, i]
+            + V2 * K[1, i]
+            + V3 * K[2, i]
+            + V4 * K[3, i]
+            + V5 * K[4, i]
+            + V6 * K[5, i]
+            + V7 * K[6, i]
         )
 
 
@@ -184,7 +243,7 @@ def dense(rc, theta, out):  # type: ignore[no-untyped-def]
     th1 = 1.0 - theta
     for i in range(N_STATE):
         out[i] = rc[0, i] + theta * (
-            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + th1 * rc[4, i]))
+            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
         )
 
 
@@ -195,5 +254,5 @@ def dense_planar(rc, theta, out):  # type: ignore[no-untyped-def]
     th1 = 1.0 - theta
     for i in (0, 1, 2, 3, 8, 9):
         out[i] = rc[0, i] + theta * (
-            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + th1 * rc[4, i]))
+            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
         )
