@@ -1,9 +1,9 @@
 """The Runge-Kutta pair of ``bowlrec/core/tsit5.py`` against Butcher's order conditions.
 
-Tsitouras' coefficients are decimals (16-17 digits), so each condition holds to rounding: the
-tolerance 1e-13 is ~100 ulp of the largest products (coefficients up to ~90). Dormand-Prince's
-pair (exact rationals, ``benchmarks/rk_pair.py``'s variant) passes the same checks and shows the
-checker itself is right; a single wrong digit in the 6th place of any coefficient fails them.
+Tsitouras' coefficients are decimals (16-17 digits), so each condition holds to rounding only:
+measured 1.0e-14 at most, against 4e-16 for Dormand-Prince's exact rationals; the tolerance is
+1e-13. Dormand-Prince's pair (``benchmarks/rk_pair.py``'s variant) passing the same checks shows
+the checker itself is right, and one coefficient changed by 1e-6 relative fails them.
 """
 
 from __future__ import annotations

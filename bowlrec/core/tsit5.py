@@ -180,7 +180,8 @@ def error_norm(y, ynew, K, h, rtol, q_weight, slip_r):  # type: ignore[no-untype
     m/s): controlled only through them, its absolute error is ~10 rtol m/s, and where rolling is
     marginal (the slip lingers at a few mm/s before it vanishes) that error moves the slide ->
     roll point by decimetres. Over the work-precision benchmark's 218 deliveries the worst slide
-    error at rtol 3e-5 goes from 561 mm to 1.4 mm with it (benchmarks/results/work_precision.md).
+    error at rtol 3e-5 is 0.66 mm with it (benchmarks/results/work_precision.md); without it,
+    ~560 mm from rtol 2e-4 down to 3e-5 (measured with Dormand-Prince's pair).
     ``slip_r`` = 0 (rolling: the slip is zero by construction) leaves the term out."""
     acc = 0.0
     for i in range(S_QW):
