@@ -68,7 +68,7 @@ _D = (
     -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0,
 )
 _B = (A71, A72, A73, A74, A75, A76, 0.0)
-_R4 = [d for d in _D]
+_R4 = list(_D)
 _R3 = [-2.0 * b - 2.0 * d + (1.0 if i in (0, 6) else 0.0) for i, (b, d) in enumerate(zip(_B, _D))]
 _R2 = [b - r3 - r4 - (1.0 if i == 0 else 0.0) for i, (b, r3, r4) in enumerate(zip(_B, _R3, _R4))]
 (R12, R22, R32, R42, R52, R62, R72) = _R2

@@ -154,17 +154,23 @@ def stages(y, h, ws, law, run):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _over_stages(K, i, c1, c2, c3, c4, c5, c6, c7):  # type: ignore[no-untyped-def]
+    """sum_j c_j K[j - 1, i] over the 7 stages, added in stage order."""
+    return (
+        c1 * K[0, i]
+        + c2 * K[1, i]
+        + c3 * K[2, i]
+        + c4 * K[3, i]
+        + c5 * K[4, i]
+        + c6 * K[5, i]
+        + c7 * K[6, i]
+    )
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
 def _embedded_error(K, h, i):  # type: ignore[no-untyped-def]
     """Component i of the embedded (5th - 4th order) error estimate of a step of size h."""
-    return h * (
-        E1 * K[0, i]
-        + E2 * K[1, i]
-        + E3 * K[2, i]
-        + E4 * K[3, i]
-        + E5 * K[4, i]
-        + E6 * K[5, i]
-        + E7 * K[6, i]
-    )
+    return h * _over_stages(K, i, E1, E2, E3, E4, E5, E6, E7)
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
@@ -218,24 +224,14 @@ def dense_coeffs(y, ynew, K, h, rc):  # type: ignore[no-untyped-def]
         rc[0, i] = y[i]
         rc[1, i] = ydiff
         rc[2, i] = h * K[0, i] - ydiff
-        rc[3, i] = h * (
-            U1 * K[0, i]
-            + U2 * K[1, i]
-            + U3 * K[2, i]
-            + U4 * K[3, i]
-            + U5 * K[4, i]
-            + U6 * K[5, i]
-            + U7 * K[6, i]
-        )
-        rc[4, i] = h * (
-            V1 * K[0, i]
-            + V2 * K[1, i]
-            + V3 * K[2, i]
-            + V4 * K[3, i]
-            + V5 * K[4, i]
-            + V6 * K[5, i]
-            + V7 * K[6, i]
-        )
+        rc[3, i] = h * _over_stages(K, i, U1, U2, U3, U4, U5, U6, U7)
+        rc[4, i] = h * _over_stages(K, i, V1, V2, V3, V4, V5, V6, V7)
+
+
+@njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
+def _dense_component(rc, theta, th1, i):  # type: ignore[no-untyped-def]
+    """Component i of the continuous extension at ``theta`` (``th1`` = 1 - theta)."""
+    return rc[0, i] + theta * (rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i])))
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT)
@@ -243,9 +239,7 @@ def dense(rc, theta, out):  # type: ignore[no-untyped-def]
     """The state at the fraction ``theta`` of the step (0: its start, 1: its end) into ``out``."""
     th1 = 1.0 - theta
     for i in range(N_STATE):
-        out[i] = rc[0, i] + theta * (
-            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
-        )
+        out[i] = _dense_component(rc, theta, th1, i)
 
 
 @njit(cache=True, error_model="numpy", **NO_NRT, forceinline=True)
@@ -254,6 +248,4 @@ def dense_planar(rc, theta, out):  # type: ignore[no-untyped-def]
     w_x, w_y)."""
     th1 = 1.0 - theta
     for i in (0, 1, 2, 3, 8, 9):
-        out[i] = rc[0, i] + theta * (
-            rc[1, i] + th1 * (rc[2, i] + theta * (rc[3, i] + theta * rc[4, i]))
-        )
+        out[i] = _dense_component(rc, theta, th1, i)
