@@ -19,12 +19,14 @@ wrapper and ``solve_ivp``), the same segments and the same events:
 * the segments and events of ``scipy_solve`` (read its docstring): pins x = L, gutters y = 0 /
   y = W, vx = 0, n = 0, friction-cell edges in x and y, and while sliding the slip zero
   (s . u_ref = 0), the 30 degree turn of the slip (Coulomb) or of the friction direction (in
-  the slip layer), the layer's entry at |s| = s_layer / 2 and exit at |s| = s_layer; slip zero ->
-  the contact impulse that zeroes the slip, then rolling if the rolling ball's friction reserve
-  is >= -rtol g, else sliding again along the slaved direction; while rolling the friction
+  the slip layer), the layer's entry at |s| = s_layer / 2 and exit at |s| = s_layer (bowlrec's
+  wider exit for a slip restarted from rolling above rtol 3e-6, ``arguments.restart_layer``, is
+  not mirrored: it leaves the work-precision set's median right-hand sides unchanged); slip
+  zero -> the contact impulse that zeroes the slip, then rolling if the rolling ball's friction
+  reserve is >= -rtol g, else sliding again along the slaved direction; while rolling the friction
   reserve mu n - |f| < -rtol g -> sliding, found at step ends and, as ``scipy_solve`` does, by
-  scanning the dense output at 3 interior points of every step (``N_SCAN``) with Brent's method
-  on the bracket. The state at an event is the dense output at the root; the quaternion is
+  scanning the dense output at 3 interior points of every step (``N_SCAN``) with Brent's method on
+  the bracket. The state at an event is the dense output at the root; the quaternion is
   renormalized at every segment end.
 
 Differences from the interpreted run, none of which changes the method: ``rhs`` is evaluated

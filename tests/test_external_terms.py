@@ -34,6 +34,7 @@ from bowlrec.core.batch import pack_plans, run_batch
 from bowlrec.core.closed_form import closed_form_kernel
 from bowlrec.core.codes import LIFT_SAWICKI, PHASE_ROLL, PHASE_SLIDE, RECORD_RATE
 from bowlrec.core.dynamics import (
+    N_PAR,
     P_EXT,
     external_accel,
     pack_params,
@@ -264,7 +265,7 @@ def test_off_means_nothing_new() -> None:
     form, and the batch kernel computes the term (equal to solve)."""
     plan = Scene.model_validate({"options": {"record": "summary"}}).resolve()
     par = kernel_params(plan)
-    assert par[P_EXT] == 0.0 and par.shape == (19,)
+    assert par[P_EXT] == 0.0 and par.shape == (N_PAR,)
     assert use_closed_form(plan)
     # air settings without drag or lift, and a zero topography, resolve to the same plan
     zero = Scene.model_validate(

@@ -73,8 +73,9 @@ from .vec import NO_NRT, cross, quat_matrix, rotate, solve3, world_inertia
     P_LIFTMODEL,
     P_SLOPE,
     P_NPROF,
-) = range(19)
-N_PAR = 19
+    P_SRESTART,
+) = range(20)
+N_PAR = 20
 #: the height profile's spline follows the N_PAR entries: knots y_i (m), heights z_i (m) and the
 #: spline's second derivatives z''_i (1/m), P_NPROF values each
 P_PROFILE = N_PAR
@@ -87,6 +88,7 @@ def pack_params(
     r_delta_body_m: np.ndarray,
     slip_layer_mps: float = 1e-5,
     orientation_weight: float = 1.0,
+    restart_layer_mps: float | None = None,
     drag_per_m: float = 0.0,
     rolling_resistance_mps2: float = 0.0,
     lift_per_m: float = 0.0,
@@ -99,7 +101,8 @@ def pack_params(
 
     ``slip_layer_mps``: slip speed (m/s) below which friction acts along the slaved direction
     (see :func:`friction_direction`). ``orientation_weight``: weight of the quaternion in the
-    integrator's error norm (0 drops it).
+    integrator's error norm (0 drops it). ``restart_layer_mps``: slip speed (m/s) at which a
+    slip that restarted from rolling leaves the layer (None: ``slip_layer_mps``).
 
     External terms (see :func:`external_accel`; all zero: the flag P_EXT is 0 and the
     right-hand side computes nothing of them): ``drag_per_m`` = C_D rho_air A / (2 M) (1/m),
@@ -139,6 +142,7 @@ def pack_params(
         float(lift_model) if lift != 0.0 else 0.0,
         cross_slope,
         float(n_prof),
+        slip_layer_mps if restart_layer_mps is None else restart_layer_mps,
     ]
     if profile is None:
         return np.array(head, dtype=np.float64)

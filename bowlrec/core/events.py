@@ -10,7 +10,7 @@ G_GUTTER_RIGHT         y: the center crosses the right edge (y = 0)
 G_GUTTER_LEFT          W - y: the center crosses the left edge (y = W)
 G_STOP                 vx: the ball stops or comes back
 G_SLIP_ZERO            s . u_ref (minus the threshold with the paper's rule): slide -> roll
-G_LAYER                s_layer - |s| in the slip layer, |s| - s_layer / 2 outside it
+G_LAYER                s_restart - |s| in the slip layer, |s| - s_layer / 2 outside it
 G_RESERVE              mu n - |f| of the rolling ball (needs the equations of motion)
 G_CONTACT              the normal force (needs the equations of motion)
 =====================  ======================================================================
@@ -27,7 +27,7 @@ import math
 from numba import njit
 
 from .codes import PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, SLIDE_TO_ROLL_THRESHOLD
-from .dynamics import rhs, slip
+from .dynamics import P_SRESTART, rhs, slip
 from .tsit5 import N_STAGES, dense
 from .vec import NO_NRT
 
@@ -77,7 +77,7 @@ def kinematic_values(yy, law, run, bounds, gv):  # type: ignore[no-untyped-def]
         else:
             gv[G_SLIP_ZERO] = sx * law.ux + sy * law.uy
         if phase == PHASE_LAYER:
-            gv[G_LAYER] = run.s_layer - math.sqrt(sx * sx + sy * sy)
+            gv[G_LAYER] = run.par[P_SRESTART] - math.sqrt(sx * sx + sy * sy)
         else:
             gv[G_LAYER] = math.sqrt(sx * sx + sy * sy) - 0.5 * run.s_layer
 
