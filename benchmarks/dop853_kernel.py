@@ -19,9 +19,8 @@ wrapper and ``solve_ivp``), the same segments and the same events:
 * the segments and events of ``scipy_solve`` (read its docstring): pins x = L, gutters y = 0 /
   y = W, vx = 0, n = 0, friction-cell edges in x and y, and while sliding the slip zero
   (s . u_ref = 0), the 30 degree turn of the slip (Coulomb) or of the friction direction (in
-  the slip layer), the layer's entry at |s| = s_layer / 2 and exit at |s| = s_layer (bowlrec's
-  wider exit for a slip restarted from rolling above rtol 3e-6, ``arguments.restart_layer``, is
-  not mirrored: it leaves the work-precision set's median right-hand sides unchanged); slip
+  the slip layer), the layer's entry at |s| = s_layer / 2 and exit at |s| = s_restart
+  (``arguments.slip_layer`` and ``restart_layer``, as bowlrec's; ``lay`` holds both); slip
   zero -> the contact impulse that zeroes the slip, then rolling if the rolling ball's friction
   reserve is >= -rtol g, else sliding again along the slaved direction; while rolling the friction
   reserve mu n - |f| < -rtol g -> sliding, found at step ends and, as ``scipy_solve`` does, by
@@ -55,7 +54,13 @@ import numpy as np
 from numba import njit
 from scipy.integrate._ivp import dop853_coefficients as _dc
 
-from bowlrec.core.arguments import initial_state, kernel_params, needs_orientation, slip_layer
+from bowlrec.core.arguments import (
+    initial_state,
+    kernel_params,
+    needs_orientation,
+    restart_layer,
+    slip_layer,
+)
 from bowlrec.core.codes import (
     OUTCOMES,
     PHASE_ROLL,
@@ -211,7 +216,7 @@ def _needs_dyn(code):  # type: ignore[no-untyped-def]
 
 
 @njit(cache=True, error_model="numpy")
-def _event_value(code, edge, y, n, margin, ux, uy, a, b, R, L, W, s_lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
+def _event_value(code, edge, y, n, margin, ux, uy, a, b, R, L, W, lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
     """The event function ``code`` of scipy_solve at state y ((n, margin, ux, uy): ``rhs``'s
     dynamics there, used by the airborne, turn and reserve events; (a, b) = u_ref)."""
     if code == EV_PINS:
@@ -233,11 +238,11 @@ def _event_value(code, edge, y, n, margin, ux, uy, a, b, R, L, W, s_lay, cos_tur
     if code == EV_SLIP:
         return sx * a + sy * b
     if code == EV_EXIT:
-        return math.hypot(sx, sy) - s_lay
+        return math.hypot(sx, sy) - lay[1]
     if code == EV_TURN:
         return ux * a + uy * b - cos_turn
     if code == EV_ENTER:
-        return math.hypot(sx, sy) - 0.5 * s_lay
+        return math.hypot(sx, sy) - 0.5 * lay[0]
     if code == EV_CTURN:
         return sx * a + sy * b - cos_turn * math.hypot(sx, sy)
     return margin + margin_tol  # EV_RESERVE
@@ -297,7 +302,7 @@ def _dense_eval(t, t_old, h, y_old, F, out):  # type: ignore[no-untyped-def]
 
 @njit(cache=True, error_model="numpy")
 def _ev_at(code, edge, t, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr, orient, cnt,
-           R, L, W, s_lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
+           R, L, W, lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
     """Event function ``code`` on the dense output at t (``rhs`` evaluated if it needs it)."""
     _dense_eval(t, t_old, h, y_old, F, ytmp)
     n = 0.0
@@ -306,7 +311,7 @@ def _ev_at(code, edge, t, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr
     uy = 0.0
     if _needs_dyn(code):
         n, margin, ux, uy = _f(t, ytmp, par, phase, mu, uxr, uyr, orient, dy, cnt)
-    return _event_value(code, edge, ytmp, n, margin, ux, uy, uxr, uyr, R, L, W, s_lay,
+    return _event_value(code, edge, ytmp, n, margin, ux, uy, uxr, uyr, R, L, W, lay,
                         cos_turn, margin_tol)  # fmt: skip
 
 
@@ -323,16 +328,16 @@ def _scan_value(which, t, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr
 
 @njit(cache=True, error_model="numpy")
 def _brent(kind, code, edge, xa, xb, xtol, rtol_b, t_old, h, y_old, F, ytmp, dy, par, phase, mu,
-           uxr, uyr, orient, cnt, R, L, W, s_lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
+           uxr, uyr, orient, cnt, R, L, W, lay, cos_turn, margin_tol):  # type: ignore[no-untyped-def]  # fmt: skip
     """scipy's ``brentq`` (scipy/optimize/Zeros/brentq.c, 100 iterations) on an event function
     of the dense output: kind 0 -> event ``code``, kind 1 -> the scan's g number ``code``."""
     xpre = xa
     xcur = xb
     if kind == 0:
         fpre = _ev_at(code, edge, xpre, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr,
-                      orient, cnt, R, L, W, s_lay, cos_turn, margin_tol)  # fmt: skip
+                      orient, cnt, R, L, W, lay, cos_turn, margin_tol)  # fmt: skip
         fcur = _ev_at(code, edge, xcur, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr,
-                      orient, cnt, R, L, W, s_lay, cos_turn, margin_tol)  # fmt: skip
+                      orient, cnt, R, L, W, lay, cos_turn, margin_tol)  # fmt: skip
     else:
         fpre = _scan_value(code, xpre, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr,
                            orient, cnt, margin_tol)  # fmt: skip
@@ -391,7 +396,7 @@ def _brent(kind, code, edge, xa, xb, xtol, rtol_b, t_old, h, y_old, F, ytmp, dy,
             xcur += delta if sbis > 0.0 else -delta
         if kind == 0:
             fcur = _ev_at(code, edge, xcur, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr,
-                          uyr, orient, cnt, R, L, W, s_lay, cos_turn, margin_tol)  # fmt: skip
+                          uyr, orient, cnt, R, L, W, lay, cos_turn, margin_tol)  # fmt: skip
         else:
             fcur = _scan_value(code, xcur, t_old, h, y_old, F, ytmp, dy, par, phase, mu, uxr,
                                uyr, orient, cnt, margin_tol)  # fmt: skip
@@ -400,7 +405,7 @@ def _brent(kind, code, edge, xa, xb, xtol, rtol_b, t_old, h, y_old, F, ytmp, dy,
 
 @njit(cache=True, error_model="numpy")
 def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, atol, codes,
-             edges, dirs, n_events, rolling, R, L, W, s_lay, cos_turn, margin_tol, cnt, K, F,
+             edges, dirs, n_events, rolling, R, L, W, lay, cos_turn, margin_tol, cnt, K, F,
              work):  # type: ignore[no-untyped-def]  # fmt: skip
     """``solve_ivp(fun, (t0, t_bound), y, method="DOP853", rtol, atol, events)`` with terminal
     events (and, while rolling, scipy_solve's scan of the dense output); f0 = fun(t0, y) and
@@ -426,7 +431,7 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
     g_new = np.empty(n_events)
     for k in range(n_events):
         g[k] = _event_value(codes[k], edges[k], y, dyn0[0], dyn0[1], dyn0[2], dyn0[3], uxr, uyr,
-                            R, L, W, s_lay, cos_turn, margin_tol)  # fmt: skip
+                            R, L, W, lay, cos_turn, margin_tol)  # fmt: skip
 
     # select_initial_step (error-estimator order 7)
     interval = abs(t_bound - t0)
@@ -537,7 +542,7 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
         for k in range(n_events):
             n_, m_, ux_, uy_ = dyn_new
             g_new[k] = _event_value(codes[k], edges[k], y, n_, m_, ux_, uy_, uxr, uyr, R, L, W,
-                                    s_lay, cos_turn, margin_tol)  # fmt: skip
+                                    lay, cos_turn, margin_tol)  # fmt: skip
         for k in range(n_events):
             up = g[k] <= 0.0 and g_new[k] >= 0.0
             down = g[k] >= 0.0 and g_new[k] <= 0.0
@@ -548,7 +553,7 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
                     have_dense = True
                 r = _brent(0, codes[k], edges[k], t_old, t, 4.0 * EPS, 4.0 * EPS, t_old,
                            h_dense, y_old, F, ytmp, dy, par, phase, mu, uxr, uyr, orient, cnt,
-                           R, L, W, s_lay, cos_turn, margin_tol)  # fmt: skip
+                           R, L, W, lay, cos_turn, margin_tol)  # fmt: skip
                 if r < t_root:
                     t_root = r
                     ev = codes[k]
@@ -570,7 +575,7 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
                         lo = t_old
                     r = _brent(1, which, 0.0, lo, tb, 1e-15, 4.0 * EPS, t_old, h_dense, y_old,
                                F, ytmp, dy, par, phase, mu, uxr, uyr, orient, cnt, R, L, W,
-                               s_lay, cos_turn, margin_tol)  # fmt: skip
+                               lay, cos_turn, margin_tol)  # fmt: skip
                     _dense_eval(r, t_old, h_dense, y_old, F, y)
                     return 1, r, EV_RESERVE if which == 0 else EV_AIRBORNE
         if ev >= 0:
@@ -583,14 +588,14 @@ def _segment(t0, y, f0, dyn0, t_bound, par, phase, mu, uxr, uyr, orient, rtol, a
 
 
 @njit(cache=True, error_model="numpy")
-def _kernel(par, par_layer, y0, xe, ye, mug, L, W, s_lay, margin_tol, cos_turn, rtol, atol,
+def _kernel(par, par_layer, y0, xe, ye, mug, L, W, lay, margin_tol, cos_turn, rtol, atol,
             t_max, orient, snap_impulse, max_segments):  # type: ignore[no-untyped-def]  # fmt: skip
     """One delivery, scipy_solve's segment loop; returns (status, t, y, slide_x, counters)
     (slide_x NaN if the ball never rolls; counters: n_rhs, n_steps, n_rejected, n_segments,
     n_events, then per event code how often it ended a segment)."""
     n = y0.shape[0]
     R = par[P_R]
-    s_zero = 0.6 * s_lay
+    s_zero = 0.6 * lay[0]
     cnt = np.zeros(C_KINDS + len(EVENT_NAMES), dtype=np.int64)
     y = y0.copy()
     f0 = np.empty(n)
@@ -690,7 +695,7 @@ def _kernel(par, par_layer, y0, xe, ye, mug, L, W, s_lay, margin_tol, cos_turn, 
         rolling = phase == PHASE_ROLL
         # the layer's events compare |s| with the plan's layer speed (rhs gets twice it)
         st, t, kind = _segment(t, y, f0, dyn0, t_max, p, phase, mu, uxr, uyr, orient, rtol,
-                               atol, codes, edges, dirs, ne, rolling, R, L, W, s_lay, cos_turn,
+                               atol, codes, edges, dirs, ne, rolling, R, L, W, lay, cos_turn,
                                margin_tol, cnt, K, F, work)  # fmt: skip
         if st < 0:
             status = STATUS_STALLED
@@ -792,8 +797,10 @@ def kernel_args(
     atol = 0.1 * rtol if atol is None else atol
     p = summary_plan(plan, rtol, s_layer)
     par = kernel_params(p)
-    s_lay = slip_layer(p)
-    par_layer = kernel_params(dataclasses.replace(p, slip_layer_mps=2.0 * s_lay))
+    # the layer is entered at s_layer / 2 and left at s_restart (bowlrec's hysteresis); inside
+    # it rhs gets twice the exit speed: slaved (or radial) friction up to |s| = s_restart
+    lay = np.array([slip_layer(p), restart_layer(p)])
+    par_layer = kernel_params(dataclasses.replace(p, slip_layer_mps=2.0 * lay[1]))
     args = (
         par,
         par_layer,
@@ -803,7 +810,7 @@ def kernel_args(
         np.ascontiguousarray(p.friction_mu, dtype=np.float64),
         float(p.lane_length_m),
         float(p.lane_width_m),
-        float(s_lay),
+        lay,
         float(rtol) * float(p.g_mps2),
         math.cos(math.radians(TURN_DEG)),
         float(rtol),

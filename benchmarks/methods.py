@@ -39,7 +39,13 @@ from typing import Any
 
 import numpy as np
 
-from bowlrec.core.arguments import initial_state, kernel_params, needs_orientation, slip_layer
+from bowlrec.core.arguments import (
+    initial_state,
+    kernel_params,
+    needs_orientation,
+    restart_layer,
+    slip_layer,
+)
 from bowlrec.core.codes import PHASE_ROLL, PHASE_SLIDE, RECORD_SUMMARY
 from bowlrec.core.dynamics import rhs, roll_accel, slaved_direction, slip
 from bowlrec.core.plan import Plan
@@ -204,16 +210,17 @@ def scipy_solve(
       u_ref is never stale: the slip direction can turn by > 100 deg within microseconds as
       |s| -> 0, e.g. in the stick-slip of case 18); |s| = s_layer / 2 -> the slip enters the
       layer; s . u_ref = 0 -> slip zero (only reachable through the layer).
-    * sliding in the layer, entered at |s| = s_layer / 2 and left at |s| = s_layer (bowlrec's
-      hysteresis; ``rhs`` gets twice the layer speed in these segments, so it lets friction
-      act along the slaved direction for |s| < s_layer; without the hysteresis a slip whose
+    * sliding in the layer, entered at |s| = s_layer / 2 and left at |s| = s_restart (bowlrec's
+      hysteresis; ``rhs`` gets twice the exit speed in these segments, so it lets friction
+      act along the slaved direction for |s| < s_restart; without the hysteresis a slip whose
       direction is still turning at the layer edge chatters across it with zero-length
       segments), found by Newton's method from u_ref; u_ref = the slaved direction found from
       the slip direction at the layer entry, as bowlrec does: s . u_ref = 0 -> slip zero;
       u . u_ref = cos(30 deg) (u: the friction direction ``rhs`` uses) -> restart with
       u_ref = u, so the Newton start tracks the root (from a stale u_ref Newton can converge
       to the other root and the slip then chatters at |s| = s_layer / 2 for millions of
-      right-hand sides); |s| = s_layer (growing) -> back to Coulomb.
+      right-hand sides); |s| = s_restart (growing; ``arguments.restart_layer``) -> back to
+      Coulomb.
     * slip zero: the residual slip (< s_layer) is set to exactly 0 (``snap="impulse"``:
       by a contact impulse, as bowlrec does; ``"velocity"``: v = R_con x w, omega unchanged,
       which moves v by up to s_layer / 2 and the hook by ~ that times the remaining time,
@@ -239,9 +246,10 @@ def scipy_solve(
     p = _summary_plan(plan, rtol, s_layer)
     par = kernel_params(p)
     s_lay = slip_layer(p)
-    # inside the layer rhs gets twice the layer speed: slaved friction up to |s| = s_layer
-    # (bowlrec's hysteresis: enter at s_layer / 2, leave at s_layer)
-    par_layer = kernel_params(dataclasses.replace(p, slip_layer_mps=2.0 * s_lay))
+    s_rst = restart_layer(p)
+    # inside the layer rhs gets twice the exit speed: slaved friction up to |s| = s_restart
+    # (bowlrec's hysteresis: enter at s_layer / 2, leave at s_restart)
+    par_layer = kernel_params(dataclasses.replace(p, slip_layer_mps=2.0 * s_rst))
     orient = needs_orientation(p)
     R = float(p.radius_m)
     L = float(p.lane_length_m)
@@ -323,8 +331,10 @@ def scipy_solve(
                 )
             )
 
-            def smag(t: float, y: np.ndarray, level: float = 1.0 if layer else 0.5) -> float:
-                return math.hypot(R * y[9] - y[2], -R * y[8] - y[3]) - level * s_lay
+            def smag(
+                t: float, y: np.ndarray, level: float = s_rst if layer else 0.5 * s_lay
+            ) -> float:
+                return math.hypot(R * y[9] - y[2], -R * y[8] - y[3]) - level
 
             if layer:
                 evs.append(("exit", _event(smag, 1.0)))
