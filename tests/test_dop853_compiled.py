@@ -104,7 +104,7 @@ def test_run_method_times_the_compiled_kernel_by_the_median() -> None:
 
 @pytest.mark.parametrize("case", ["case05", "case18"])
 def test_compiled_and_scipys_leave_the_layer_at_the_restart_speed(case: str) -> None:
-    """At rtol 1e-4 a slip restarted from rolling leaves the layer at ``restart_layer`` (2.8x
+    """At rtol 1e-4 a slip restarted from rolling leaves the layer at ``restart_layer`` (5.8x
     ``slip_layer`` there) in both drivers, as in bowlrec: stick-slip cases 5 and 18 (roll ->
     slide events) agree within the tolerance's own error and take the same right-hand sides
     but for the Python run's repeats."""

@@ -133,10 +133,10 @@ def restart_layer(plan: Plan) -> float:
     """Slip speed (m/s) up to which a slip that restarted from rolling stays in the slip layer
     (friction along the slaved direction, not stiff): :func:`slip_layer` up to rtol 3e-6, then
     growing as sqrt(rtol) to 3e-3 m/s at rtol 3e-4 (9.5e-4 m/s at rtol 3e-5, 2.1e-3 m/s at
-    1.5e-4). A slip that falls from a slide enters the layer at half :func:`slip_layer`, as before.
+    1.5e-4). A slip that falls from a slide enters the layer at half :func:`slip_layer`.
 
     After a roll -> slide event (the friction cone of a rolling ball, stick-slip) the slip grows
-    from zero to a few mm/s and back, and above the layer its direction is stiff (it relaxes at
+    from zero to several mm/s and back, and above the layer its direction is stiff (it relaxes at
     a rate ~ mu g (1 + R^2/k^2) / |s|): explicit steps are held near the stability limit
     there. Over the speed-limit benchmark's 2,218 deliveries at rtol 1.5e-4 the wider exit
     takes 585 right-hand sides a delivery on average instead of 686, with the worst hook,

@@ -30,17 +30,17 @@ Events (a function g fires where it goes from >= 0 to < 0 between two dense samp
   every stage and step end, then located on the dense output);
 * loss of contact: the normal force turns negative (outcome "airborne").
 
-Stiff restart of sliding. When a rolling ball starts to slip again, |s| grows from zero and the slip
-direction relaxes at a rate ~ mu g (1 + R^2/k^2) / |s|; an explicit method would crawl with ~1e-9 s
-steps. The same stiffness appears whenever the slip lingers near zero (a ball at the edge of the
-friction cone, the stick-slip of Table III cases 5 and 18). Below a slip speed ``s_layer`` (entered
-at s_layer / 2 by a falling slip, left at s_restart >= s_layer: hysteresis;
+Stiff restart of sliding. When a rolling ball starts to slip again, |s| grows from zero and the
+slip direction relaxes at a rate ~ mu g (1 + R^2/k^2) / |s|; an explicit method would crawl with
+~1e-9 s steps. The same stiffness appears whenever the slip lingers near zero (a ball at the edge
+of the friction cone, the stick-slip of Table III cases 5 and 18). Below a slip speed ``s_layer``
+(entered at s_layer / 2 by a falling slip, left at s_restart >= s_layer: hysteresis;
 ``arguments.restart_layer`` widens the exit at loose tolerances) bowlrec does not integrate the
-stiff relaxation of the slip direction. Where rolling is possible (the rolling ball needs at most mu
-n) every small slip reaches zero in finite time, and friction acts along the direction that makes it
-shrink straight to zero (``dynamics.radial_direction``); otherwise (the slip restarts from rolling)
-along the slaved direction (the unit u with ds/dt(u) parallel to +u, the |s| -> 0 limit of the exact
-dynamics). While sliding, a step is cut to end about where the linearly
+stiff relaxation of the slip direction. Where rolling is possible (the rolling ball needs at most
+mu n) every small slip reaches zero in finite time, and friction acts along the direction that
+makes it shrink straight to zero (``dynamics.radial_direction``); otherwise (the slip restarts
+from rolling) along the slaved direction (the unit u with ds/dt(u) parallel to +u, the |s| -> 0
+limit of the exact dynamics). While sliding, a step is cut to end about where the linearly
 extrapolated slip reaches the larger of s_layer / 4 and 0.3 of the slip at its start
 (``step_control.AIM_FRACTION``), so steps do not jump across |s| = 0, where the Coulomb
 direction is singular (a curved approach could pass beside the root unseen). The error this
