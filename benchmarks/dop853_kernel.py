@@ -693,7 +693,8 @@ def _kernel(par, par_layer, y0, xe, ye, mug, L, W, lay, margin_tol, cos_turn, rt
             dirs[ne] = -1.0
             ne += 1
         rolling = phase == PHASE_ROLL
-        # the layer's events compare |s| with the plan's layer speed (rhs gets twice it)
+        # the layer's events compare |s| with s_layer / 2 (entry) and s_restart (exit); rhs gets
+        # twice s_restart inside the layer
         st, t, kind = _segment(t, y, f0, dyn0, t_max, p, phase, mu, uxr, uyr, orient, rtol,
                                atol, codes, edges, dirs, ne, rolling, R, L, W, lay, cos_turn,
                                margin_tol, cnt, K, F, work)  # fmt: skip
