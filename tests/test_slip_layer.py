@@ -117,6 +117,7 @@ def test_event_scan_is_skipped_only_where_nothing_can_cross() -> None:
             slide_mode=SLIDE_TO_ROLL_EXACT,
             slip_threshold=0.0,
             s_layer=par[P_SLAYER],
+            s_restart=par[P_SRESTART],
             orient=True,
             margin_tol=1e-5,
             max_time=1e300,

@@ -27,7 +27,7 @@ import math
 from numba import njit
 
 from .codes import PHASE_LAYER, PHASE_ROLL, PHASE_SLIDE, SLIDE_TO_ROLL_THRESHOLD
-from .dynamics import P_SRESTART, rhs, slip
+from .dynamics import rhs, slip
 from .tsit5 import N_STAGES, dense
 from .vec import NO_NRT
 
@@ -77,7 +77,7 @@ def kinematic_values(yy, law, run, bounds, gv):  # type: ignore[no-untyped-def]
         else:
             gv[G_SLIP_ZERO] = sx * law.ux + sy * law.uy
         if phase == PHASE_LAYER:
-            gv[G_LAYER] = run.par[P_SRESTART] - math.sqrt(sx * sx + sy * sy)
+            gv[G_LAYER] = run.s_restart - math.sqrt(sx * sx + sy * sy)
         else:
             gv[G_LAYER] = math.sqrt(sx * sx + sy * sy) - 0.5 * run.s_layer
 

@@ -101,7 +101,7 @@ from .codes import (
     STATUS_STOPPED,
 )
 from .contact import release_law, remove_slip, rolling_grip
-from .dynamics import P_G, P_QWEIGHT, P_R, P_SLAYER, rhs, slaved_direction, slip
+from .dynamics import P_G, P_QWEIGHT, P_R, P_SLAYER, P_SRESTART, rhs, slaved_direction, slip
 from .events import (
     G_CONTACT,
     G_GUTTER_LEFT,
@@ -377,6 +377,7 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
         slide_mode=slide_mode,
         slip_threshold=slip_threshold,
         s_layer=s_layer,
+        s_restart=par[P_SRESTART],
         orient=orient,
         margin_tol=rtol * g,
         max_time=max_time,

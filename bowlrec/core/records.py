@@ -25,8 +25,11 @@ class RunSettings(NamedTuple):
     slide_mode: int
     #: the paper's slide -> roll threshold on |slip| (m/s), for SLIDE_TO_ROLL_THRESHOLD
     slip_threshold: float
-    #: slip speed below which the slip direction is not integrated (m/s)
+    #: slip speed below which the slip direction is not integrated (m/s): a falling slip
+    #: enters the slip layer at s_layer / 2
     s_layer: float
+    #: slip speed at which a slip leaves the slip layer (m/s; ``arguments.restart_layer``)
+    s_restart: float
     #: integrate the quaternion
     orient: bool
     #: how far the friction a rolling ball needs may exceed mu n before it slides (m/s^2)
