@@ -407,9 +407,21 @@ def _cpu_s(pid: int | None) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _machine_cpu_s() -> tuple[float, float]:
+    """(busy, total) CPU time of the whole machine since boot, summed over its cores (s; from
+    /proc/stat: busy is all but idle and iowait; zeros without /proc)."""
+    try:
+        ticks = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    except OSError:
+        return 0.0, 0.0
+    hz = os.sysconf("SC_CLK_TCK")
+    return (sum(ticks) - ticks[3] - ticks[4]) / hz, sum(ticks) / hz
+
+
 def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str, Any]:
     """``clients`` threads, each with its own httpx client, ``per_client`` requests each; with
-    the CPU time the server process and this (the clients') process spent on them."""
+    the CPU time the server process, this (the clients') process and the whole machine (the
+    server's writer process included) spent on them."""
     import threading
 
     import httpx
@@ -440,10 +452,13 @@ def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str,
     pid = _server_pid(url)
     barrier.wait()
     t0, server0, clients0 = time.perf_counter(), _cpu_s(pid), time.process_time()
+    machine0 = _machine_cpu_s()
     for t in threads:
         t.join()
     wall = time.perf_counter() - t0
     server_s, clients_s = _cpu_s(pid) - server0, time.process_time() - clients0
+    machine1 = _machine_cpu_s()
+    busy_s, all_s = machine1[0] - machine0[0], machine1[1] - machine0[1]
     if errors:
         raise RuntimeError(f"{len(errors)} failed requests, e.g. {errors[0]}")
     total = clients * per_client
@@ -454,6 +469,8 @@ def _load(url: str, clients: int, per_client: int, new_scene: bool) -> dict[str,
         "server_cpu_ms_per_request": 1e3 * server_s / total,
         "server_cores": server_s / wall,
         "client_cores": clients_s / wall,
+        "machine_busy_pct": 100 * busy_s / all_s if all_s else float("nan"),
+        "machine_cpu_ms_per_request": 1e3 * busy_s / total,
     }
 
 
@@ -565,6 +582,12 @@ def measure(quick: bool) -> dict[str, Any]:
     batch_rate = rows[0]["steady_per_s"]
     service["jobs"]["pct_of_batch"] = 100 * service["jobs"]["steady_per_s"] / batch_rate
     service["runs"]["pct_of_health"] = 100 * service["runs"]["per_s"] / service["health"]["per_s"]
+    # the rate at which POST /runs would use every core at its measured CPU per request
+    cpu_ms = service["runs"]["machine_cpu_ms_per_request"]
+    service["runs"]["cpu_bound_per_s"] = (os.cpu_count() or 1) * 1e3 / cpu_ms
+    service["runs"]["cpu_bound_pct_of_health"] = (
+        100 * service["runs"]["cpu_bound_per_s"] / service["health"]["per_s"]
+    )
     core_us = costs["kernel_us"]
     overhead = costs["chunk_with_archive_us"] - core_us + costs["index_us"]
     costs["ceiling_pct_archive"] = 100 * core_us / (core_us + overhead)
@@ -758,7 +781,11 @@ def markdown(d: dict[str, Any]) -> str:
         "",
         f"On 2 cores every stage shares the same CPU: the measured costs cap the batch at "
         f"{c['ceiling_pct_archive']:.0f} % of the kernel with the archive and "
-        f"{c['ceiling_pct_no_archive']:.0f} % without.",
+        f"{c['ceiling_pct_no_archive']:.0f} % without. At 80 % of the kernel, everything "
+        f"but the kernel may take {c['kernel_us'] * 0.25:.1f} µs of CPU per run (a quarter of "
+        f"the kernel's); the stages above take "
+        f"{c['chunk_with_archive_us'] - c['kernel_us'] + c['index_us']:.1f} µs, "
+        f"{c['index_us']:.1f} µs of it the index row.",
         "",
     ]
     b = d["bowler"]
@@ -840,6 +867,18 @@ def markdown(d: dict[str, Any]) -> str:
         f"{_f(s['runs']['server_cores'], 2)} / {_f(s['health']['server_cores'], 2)} cores and "
         f"the clients' process {_f(s['runs']['client_cores'], 2)} / "
         f"{_f(s['health']['client_cores'], 2)} (one interpreter each).",
+        "",
+        f"The whole machine (server, its writer process, the clients; other load of the shared "
+        f"machine included) was {_f(s['runs']['machine_busy_pct'])} % busy under `POST /runs` "
+        f"and {_f(s['health']['machine_busy_pct'])} % under `GET /health`: "
+        f"{_f(s['runs']['machine_cpu_ms_per_request'], 2)} ms of CPU per `POST /runs` against "
+        f"{_f(s['health']['machine_cpu_ms_per_request'], 2)} ms per `GET /health`. At that CPU "
+        f"per request, the machine's {d['machine']['cpu_count']} cores, all busy, would serve "
+        "at most "
+        f"{_f(s['runs']['cpu_bound_per_s'])} `POST /runs` per second, "
+        f"{_f(s['runs']['cpu_bound_pct_of_health'], 1)} % of `GET /health`'s rate. More "
+        "server processes cannot take `POST /runs` past that rate on this machine; less CPU "
+        "per request can.",
         "",
         "## A 10,000,000-run job",
         "",
