@@ -42,17 +42,25 @@ def atomic_path(
 
     The writer inside the ``with`` block must close the file it wrote. On an exception the
     temporary is removed and ``final`` is untouched. ``durable`` fsyncs the file and the
-    directory so the rename survives a power loss, not only a killed process. ``hold_lock``
-    creates the temporary (empty) and holds an exclusive flock on it until the rename (see
-    :func:`remove_stale_parts`); the writer then opens it for writing and truncates it.
+    directory so the rename survives a power loss, not only a killed process. The temporary
+    is created (empty) before the block runs, so a directory that cannot be written raises
+    ``OSError`` naming ``final``; the writer opens it for writing and truncates it.
+    ``hold_lock`` holds an exclusive flock on it until the rename (see
+    :func:`remove_stale_parts`).
     """
     final = Path(final)
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.with_name(f".{final.name}.{uuid.uuid4().hex[:8]}{PART_SUFFIX}")
-    lock_fd = -1
-    if hold_lock:
+    try:  # created here, so that a place that cannot be written fails naming ``final``
         lock_fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    except OSError as err:
+        err.filename = str(final)
+        raise
+    if hold_lock:
         fcntl.flock(lock_fd, fcntl.LOCK_EX)
+    else:
+        os.close(lock_fd)
+        lock_fd = -1
     try:
         yield tmp
         if durable:
@@ -64,9 +72,11 @@ def atomic_path(
         os.replace(tmp, final)
         if durable:
             fsync_dir(final.parent)
-    except BaseException:
+    except BaseException as err:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+        if isinstance(err, OSError) and err.filename == str(tmp):
+            err.filename = str(final)  # name the file the caller asked for, not its temporary
         raise
     finally:
         if lock_fd >= 0:

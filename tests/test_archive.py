@@ -25,6 +25,7 @@ from bowlrec.errors import (
     RunDamagedError,
     RunFileError,
     RunNotFoundError,
+    SpecError,
 )
 from bowlrec.paper import paper_scene
 from bowlrec.sinks import RunData
@@ -225,8 +226,11 @@ def test_queries_filter_by_summary_ranges_outcome_pattern_and_ball(tmp_path: Pat
     assert [r["speed_mps"] for r in ordered] == pytest.approx(sorted(speeds, reverse=True))
     with pytest.raises(IndexQueryError, match="unknown column 'hookk_m'"):
         archive.list_runs(where=["hookk_m>1"])
-    with pytest.raises(IndexQueryError, match="is not a number"):
-        archive.list_runs(where=["hook_m>abc"])
+    for bad in ("abc", "NaN", "inf"):
+        with pytest.raises(IndexQueryError, match="is not a finite number"):
+            archive.list_runs(where=[f"hook_m>{bad}"])
+    with pytest.raises(IndexQueryError, match="cannot order by unknown column '--hook_m'"):
+        archive.list_runs(order_by="--hook_m")
 
 
 def test_runs_made_before_the_ball_was_added_are_found_by_spec(tmp_path: Path) -> None:
@@ -310,6 +314,26 @@ def test_ball_library_export_import_round_trip(tmp_path: Path) -> None:
         (e.ref, e.sha, e.note) for e in lib.list(all_versions=True)
     ]
     assert [added for _, added in other.import_json(doc)] == [False, False, False]
+
+
+def test_a_ball_import_with_one_bad_entry_adds_nothing_and_names_the_entry(
+    tmp_path: Path,
+) -> None:
+    lib = Archive(tmp_path / "a").balls
+    good = {"name": "house", "spec": json.loads(_scene().ball.model_dump_json())}
+    head = {"format": "bowlrec-ball-library", "format_version": 1}
+    for balls, words in (
+        ([good, {**good, "name": "spare", "note": {"a": 1}}], "balls[1].note: must be text"),
+        ([good, {"name": "spare"}], "balls[1].spec: missing"),
+        ([good, {"name": "spare", "spec": {"mass_kg": -1}}], "balls[1].spec.mass_kg"),
+        ([good, 5], "balls[1]: must be an object with name and spec (got int)"),
+        ("x", "balls: must be an array of balls (got text)"),
+    ):
+        with pytest.raises(SpecError, match=re.escape(words)):
+            lib.import_json({**head, "balls": balls})
+    with pytest.raises(SpecError, match="format_version = 2: this bowlrec reads"):
+        lib.import_json({**head, "format_version": 2, "balls": [good]})
+    assert lib.list(all_versions=True) == []
 
 
 def test_runs_reference_the_library_ball_they_used(tmp_path: Path) -> None:

@@ -179,6 +179,28 @@ def test_invalid_value_is_a_job_error_naming_the_path() -> None:
     job = JobSpec.model_validate({"sweep": {"kind": "grid", "axes": {"ball.nope": [1]}}})
     with pytest.raises(JobError, match=r"ball has no field 'nope'"):
         prepare_runs(job)
+    # a field inside a tagged union (Pydantic names the tag in the error's location)
+    axes = {"lane.friction.mu_oil": [0.04, -1.0]}
+    job = JobSpec.model_validate({"sweep": {"kind": "grid", "axes": axes}})
+    with pytest.raises(JobError, match=r"'lane.friction.mu_oil'\]: value -1.0 is invalid"):
+        prepare_runs(job)
+
+
+def test_a_points_sweep_value_invalid_on_its_own_is_a_job_error_naming_its_point() -> None:
+    points = [{"delivery.speed_mps": 7.0}, {"delivery.speed_mps": 1000.0}, {"ball.nope": 1}]
+    job = JobSpec.model_validate({"sweep": {"kind": "points", "points": points[:2]}})
+    with pytest.raises(JobError) as info:
+        prepare_runs(job)
+    assert str(info.value).startswith("sweep[0].points[1]['delivery.speed_mps']: value 1000.0")
+    assert "less than or equal to 100" in str(info.value)
+    job = JobSpec.model_validate({"sweep": {"kind": "points", "points": [points[0], points[2]]}})
+    with pytest.raises(JobError, match=r"sweep\[0\].points\[1\]\['ball.nope'\].*no field 'nope'"):
+        prepare_runs(job)
+    good = [{"delivery.speed_mps": 7.0}, {"delivery.speed_mps": 9.0, "ball.mass_kg": 6.0}]
+    assert (
+        len(prepare_runs(JobSpec.model_validate({"sweep": {"kind": "points", "points": good}})))
+        == 2
+    )
 
 
 def test_invalid_combination_is_a_failure_row_not_a_job_error() -> None:

@@ -400,6 +400,7 @@ def test_bad_pin_options_are_one_line_naming_the_field() -> None:
     for pins, words in (
         ({"pin_pin_restitution": 1.2}, "options.pins.pin_pin_restitution"),
         ({"standing": [0]}, "pin 0 is not a pin number"),
+        ({"standing": []}, "options.pins.standing: no pin stands"),
         ({"timestep_s": 4e-4, "contact_timeconst_s": 5e-4}, "at least twice timestep_s"),
     ):
         with pytest.raises(SceneInputError) as err:

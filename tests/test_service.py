@@ -57,9 +57,11 @@ def test_submit_scene_then_summary_spec_and_files(
     rid, summary = body["run_id"], body["summary"]
     assert body["added"] is True and summary["outcome"] == "pins"
 
-    again = client.post("/runs", json=sampled_scene())
+    again = client.post("/runs", json={**sampled_scene(), "name": "another name"})
     assert again.status_code == 200
     assert again.json()["run_id"] == rid and again.json()["added"] is False
+    # the name is not part of the content ID: the answer names the run as it was archived
+    assert again.json()["name"] == body["name"] != "another name"
 
     row = client.get(f"/runs/{rid[:8]}").json()  # a unique prefix works
     assert row["run_id"] == rid and row["hook_m"] == pytest.approx(summary["hook_m"])

@@ -224,6 +224,12 @@ def test_unknown_paths_and_methods_are_named(server: AppServer) -> None:
         r = client.put("/runs", json={})
         assert r.status_code == 405
         assert _detail(r) == "method PUT is not allowed on /runs (see /docs)"
+        # the client's own path is named whole, however many parts it has
+        r = client.get("/runs/abcd/nothing")
+        assert _detail(r) == "no such path: /runs/abcd/nothing (the API is described at /docs)"
+        r = client.delete("/runs/abcd/files/csv")
+        assert r.status_code == 405
+        assert _detail(r) == "method DELETE is not allowed on /runs/abcd/files/csv (see /docs)"
 
 
 def test_the_openapi_document_describes_no_error_list(server: AppServer) -> None:

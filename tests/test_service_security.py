@@ -648,8 +648,15 @@ def test_bad_input_gets_4xx_never_5xx(open_app: TestClient) -> None:
             {"format": "bowlrec-ball-library", "balls": [{"name": "a\n", "spec": BALL}]},
         ),  # fmt: skip
         ("POST", "/balls/import", []),
+        (
+            "POST",
+            "/balls/import",
+            {"format": "bowlrec-ball-library", "balls": [{"name": "n", "spec": BALL, "note": 7}]},
+        ),  # fmt: skip
+        ("POST", "/runs", {"options": {"pins": {"standing": []}}}),
         ("POST", "/balls", {"name": "x", "spec": [1]}),
         ("POST", "/balls", {"name": None, "spec": BALL}),
+        ("POST", "/balls", {"name": "x", "spec": BALL, "notes": "typo"}),
         ("POST", "/jobs", []),
         ("POST", "/jobs", {"scenes": None}),
         ("POST", "/jobs", {"scenes": "x"}),

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import json
+import re
+from pathlib import Path
+
 import pytest
 from pydantic import ValidationError
 
@@ -29,3 +33,31 @@ def test_one_line_per_error() -> None:
         "exceed the radius for a body inside the sphere)",
         "options.junk: Extra inputs are not permitted (got 1)",
     ]
+
+
+def test_a_boolean_is_not_a_number_in_scenes_and_jobs(tmp_path: Path) -> None:
+    """Pydantic's lax mode would read ``true`` as 1 (m/s, runs, ...); every number field of a
+    scene or a job refuses it, naming the field. Boolean fields still take booleans."""
+    from bowlrec.batch.job_spec import load_job
+    from bowlrec.errors import JobError, SceneInputError
+    from bowlrec.scene_input import parse_scene_input
+
+    for scene, words in (
+        ({"delivery": {"speed_mps": True}}, "delivery.speed_mps: Input should be a number"),
+        ({"delivery": {"omega_radps": [0, False, 0]}}, "delivery.omega_radps: Input should be"),
+        ({"format": "bowler", "delivery": {"speed_mph": True}}, "delivery.speed_mph: Input"),
+        ({"options": {"pins": {"seed": True}}}, "options.pins.seed: Input should be a number"),
+    ):
+        with pytest.raises(SceneInputError, match=re.escape(words)):
+            parse_scene_input(scene)
+    assert parse_scene_input({"options": {"pins": True}}).scene.options.pins is True
+    job = {
+        "format": "bowlrec-job",
+        "name": "j",
+        "base": {},
+        "sweep": {"kind": "random", "n": True, "seed": 1, "axes": {"delivery.speed_mps": [7, 9]}},
+    }
+    path = tmp_path / "job.json"
+    path.write_text(json.dumps(job))
+    with pytest.raises(JobError, match=re.escape("sweep.random.n: Input should be a number")):
+        load_job(path)

@@ -28,6 +28,7 @@ from .ball_files import (
     parse_ball,
     parse_ball_ref,
 )
+from .ball_import import LIBRARY_FORMAT, LIBRARY_FORMAT_VERSION, library_items
 from .directory import ArchiveDir
 from .index import transaction
 from .maintenance import writer_index
@@ -46,9 +47,6 @@ __all__ = [
     "parse_ball",
     "parse_ball_ref",
 ]
-
-LIBRARY_FORMAT = "bowlrec-ball-library"
-LIBRARY_FORMAT_VERSION = 1
 
 
 class BallLibrary:
@@ -221,25 +219,21 @@ class BallLibrary:
         :class:`~bowlrec.errors.SpecError` for a document that is not an export or holds an
         invalid spec (nothing is added then).
         """
-        from pydantic import ValidationError
-
-        from bowlrec.spec import format_validation_error
-
-        doc = source if isinstance(source, dict) else json.loads(Path(source).read_text())
+        doc: Any = source
+        if isinstance(source, str | Path):
+            try:
+                doc = json.loads(Path(source).read_text(encoding="utf-8"))
+            except (OSError, ValueError) as err:  # unreadable, not UTF-8 or not JSON
+                reason = err.strerror if isinstance(err, OSError) else f"not JSON: {err}"
+                raise SpecError(f"{source}: not a ball library export ({reason})") from None
         try:
-            if doc.get("format") != LIBRARY_FORMAT:
-                raise SpecError(
-                    f"not a ball library export (format = {doc.get('format')!r}, "
-                    f"expected {LIBRARY_FORMAT!r})"
-                )
-            items = sorted(doc.get("balls", []), key=lambda b: (b["name"], b.get("version", 0)))
-            parsed = [
-                (item["name"], parse_ball(item["spec"]), item.get("note", "")) for item in items
-            ]
-        except ValidationError as err:
-            raise SpecError(format_validation_error(err)) from None
-        except (AttributeError, KeyError, TypeError) as err:
-            raise SpecError(f"not a ball library document: {err}") from None
+            parsed = library_items(doc)
+        except SpecError as err:
+            if not isinstance(source, str | Path):
+                raise
+            raise SpecError(
+                "\n".join(f"{source}: {line}" for line in str(err).splitlines())
+            ) from None
         out = []
         for name, ball, note in parsed:
             sha = ball_sha(ball)

@@ -13,6 +13,7 @@ one by an atomic rename, so a reader sees the old index or the new, never a part
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import sqlite3
 import threading
@@ -325,11 +326,15 @@ class Filter:
             value = _epoch_ns(value)
         if column in NUMERIC_COLUMNS and not isinstance(value, int | float):
             try:
-                value = float(value)
+                number = float(value)
             except (TypeError, ValueError):
+                number = math.nan
+            if not math.isfinite(number):
                 raise IndexQueryError(
-                    f"filter {column}{op}{value!r}: {column} is numeric, {value!r} is not a number"
+                    f"filter {column}{op}{value!r}: {column} is numeric, {value!r} is not a "
+                    "finite number"
                 ) from None
+            value = number
         self.column, self.op, self.value = column, op, value
 
     @classmethod
@@ -384,7 +389,7 @@ def select_sql(
     index alone, so the last page of a million runs costs about what the first does
     (``benchmarks/results/web.md``).
     """
-    column = order_by.lstrip("-")
+    column = order_by.removeprefix("-")
     if column not in INDEX_COLUMNS:
         raise IndexQueryError(f"cannot order by unknown column {order_by!r}")
     direction = "DESC" if order_by.startswith("-") else "ASC"

@@ -17,6 +17,7 @@ live in :mod:`bowlrec.batch.job_spec` and are importable from here too.
 from __future__ import annotations
 
 import copy
+import json
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -48,7 +49,7 @@ from bowlrec.batch.job_spec import (
     latin_hypercube,
     load_job,
 )
-from bowlrec.batch.paths import apply_override, parse_path, path_label
+from bowlrec.batch.paths import apply_override, parse_path
 from bowlrec.bowling.scene import BowlerScene
 from bowlrec.errors import JobError, SceneInputError
 from bowlrec.scene_input import (
@@ -60,7 +61,7 @@ from bowlrec.scene_input import (
     with_library_ball,
 )
 from bowlrec.scene_input import library_lookup as scene_lookup
-from bowlrec.spec import Scene, format_validation_error
+from bowlrec.spec import Scene
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
@@ -183,13 +184,26 @@ def _base(job: JobSpec, base_dir: Path, lookup: BallLookup) -> _Base:
 
 def _own_errors(err: ValidationError, path: str) -> list[str]:
     """The lines of the message that concern ``path`` itself (or a field below it)."""
+    from bowlrec.spec.errors import format_errors
 
-    label = path_label(parse_path(path))
-    return [
-        line
-        for line in format_validation_error(err).splitlines()
-        if line.startswith((label + ":", label + ".", label + "["))
-    ]
+    keys = parse_path(path)
+    own = [e for e in err.errors(include_url=False) if _within(tuple(e["loc"]), keys)]
+    return format_errors(own).splitlines() if own else []
+
+
+def _within(loc: tuple[Any, ...], keys: tuple[Any, ...]) -> bool:
+    """Whether an error at ``loc`` concerns the field at ``keys`` or one below it. Pydantic puts
+    a tagged union's tag into the location (``lane.friction.typical.mu_oil`` for the path
+    ``lane.friction.mu_oil``), so one element between two of the path's is passed over."""
+    i = 0
+    for k, key in enumerate(keys):
+        skipped = 0
+        while i < len(loc) and loc[i] != key:
+            i, skipped = i + 1, skipped + 1
+        if i == len(loc) or (skipped and k == 0) or skipped > 1:
+            return False
+        i += 1
+    return True
 
 
 def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
@@ -197,29 +211,55 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
     (not merely in combination with other fields) raise JobError naming the path."""
     model = _model(base.bowler)
     for b, block in enumerate(job.blocks()):
-        if isinstance(block, ScenesSweep | PointsSweep):
+        if isinstance(block, ScenesSweep):
             continue
-        for path, axis in block.axes.items():
-            if isinstance(axis, Range):
-                values: list[Any] = [axis.low, axis.high]
+        if isinstance(block, PointsSweep):
+            checks = _point_checks(b, block)
+        else:
+            checks = []
+            for path, axis in block.axes.items():
+                values = [axis.low, axis.high] if isinstance(axis, Range) else axis_values(axis)
+                checks += [(f"sweep[{b}].axes[{path!r}]", path, value) for value in values]
+        for where, path, value in checks:
+            scratch = copy.deepcopy(base.data)  # the value overwrites the one path it sets
+            try:
+                apply_override(scratch, path, value)
+                data, _ = _library_ball(scratch, lookup)
+            except JobError as err:
+                raise JobError(f"{where}: {err}") from err
+            try:
+                model.model_validate(data)
+            except ValidationError as err:
+                own = _own_errors(err, path)
+                if own:
+                    raise JobError(
+                        f"{where}: value {value!r} is invalid\n" + "\n".join(own)
+                    ) from err
+
+
+def _point_checks(b: int, block: PointsSweep) -> list[tuple[str, str, Any]]:
+    """(where, path, value) of a points sweep's values to check on their own: per path, the
+    smallest and largest number (as a range's ends: they cover the numbers between them) and
+    every distinct other value, each named by the first point that holds it."""
+    numbers: dict[str, list[tuple[float, int]]] = {}
+    others: dict[tuple[str, str], tuple[int, Any]] = {}
+    for i, point in enumerate(block.points_):
+        for path, value in point.items():
+            if isinstance(value, int | float) and not isinstance(value, bool):
+                numbers.setdefault(path, []).append((value, i))
             else:
-                values = axis_values(axis)
-            where = f"sweep[{b}].axes[{path!r}]"
-            scratch = copy.deepcopy(base.data)  # each value overwrites the one path it sets
-            for value in values:
-                try:
-                    apply_override(scratch, path, value)
-                    data, _ = _library_ball(scratch, lookup)
-                except JobError as err:
-                    raise JobError(f"{where}: {err}") from err
-                try:
-                    model.model_validate(data)
-                except ValidationError as err:
-                    own = _own_errors(err, path)
-                    if own:
-                        raise JobError(
-                            f"{where}: value {value!r} is invalid\n" + "\n".join(own)
-                        ) from err
+                key = (path, json.dumps(value, sort_keys=True, default=str))
+                others.setdefault(key, (i, value))
+    checks = [
+        (f"sweep[{b}].points[{i}][{path!r}]", path, value)
+        for path, found in numbers.items()
+        for value, i in sorted({min(found), max(found)})
+    ]
+    checks += [
+        (f"sweep[{b}].points[{i}][{path!r}]", path, value)
+        for (path, _), (i, value) in others.items()
+    ]
+    return checks
 
 
 def _library_ball(data: dict[str, Any], lookup: BallLookup) -> tuple[dict[str, Any], str | None]:

@@ -35,14 +35,14 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from bowlrec.errors import JobError
 from bowlrec.file_kinds import wrong_kind
 from bowlrec.scene_input import prefix_lines
 from bowlrec.sinks.registry import sink_named
 from bowlrec.spec import format_validation_error
-from bowlrec.spec._base import spec_error
+from bowlrec.spec._base import NumbersModel, spec_error
 from bowlrec.spec.loading import read_mapping
 
 __all__ = [
@@ -76,7 +76,7 @@ MAX_JOB_RUNS = 10_000_000
 MAX_HYPERCUBE_VALUES = 20_000_000
 
 
-class _JobModel(BaseModel):
+class _JobModel(NumbersModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
 

@@ -89,7 +89,11 @@ class BowlerScene(SpecModel):
     format: Literal["bowler"] = Field(
         default="bowler", description="Marks a bowler-language scene file; always 'bowler'."
     )
-    name: str = Field(default="bowler-scene", description="Short identifier.")
+    name: str = Field(
+        default="bowler-scene",
+        max_length=200,
+        description="Short identifier (at most 200 characters).",
+    )
     description: str = Field(default="", description="Free text.")
     ball: BowlerBall = Field(default_factory=_default_ball, description="The spec sheet.")
     layout: Layout = Field(

@@ -91,10 +91,14 @@ def exit_code(err: BowlrecError) -> int:
 
 def exit_for(err: BaseException) -> None:
     """Exit with one ``error:`` line for a :class:`~bowlrec.errors.BowlrecError` (its
-    category's code) or an invalid spec Pydantic rejected (code 2); return for anything else.
-    Pydantic is imported only when the error is not a BowlrecError."""
+    category's code), an invalid spec Pydantic rejected (code 2), or a file the system
+    refused (an ``OSError``: an output path in a missing or read-only directory, a full disk;
+    code 1, the line names the file); return for anything else. Pydantic is imported only
+    when the error is not a BowlrecError."""
     if isinstance(err, BowlrecError):
         fail(str(err), code=exit_code(err))
+    if isinstance(err, OSError):
+        fail(os_error_text(err), code=1)
     if not isinstance(err, ValueError):
         return
     from pydantic import ValidationError
@@ -178,6 +182,24 @@ def archive_errors() -> Iterator[None]:
     except Exception as err:
         _exit_for_builtin(err)
         raise
+
+
+def output_dir(path: Path, option: str) -> Path:
+    """The output directory ``path`` (an ``option``'s value), created with its parents; one
+    ``error:`` line when it names a file (code 2) or cannot be created (code 1)."""
+    if path.exists() and not path.is_dir():
+        fail(f"{option} {path}: a file, not a directory")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        fail(f"{option} {os_error_text(err)}", code=1)
+    return path
+
+
+def os_error_text(err: OSError) -> str:
+    """One line for an ``OSError``: the file it names (if any) and the system's reason."""
+    reason = os.strerror(err.errno) if err.errno else " ".join(str(err).split())
+    return f"{err.filename}: {reason}" if getattr(err, "filename", None) else reason
 
 
 def _exit_for_builtin(err: Exception) -> None:

@@ -204,7 +204,9 @@ def variance(
         int | None,
         typer.Option("--n", min=1, max=100_000, help="Repeats (default: 2000; 200 with --pins)."),
     ] = None,
-    seed: Annotated[int, typer.Option("--seed", help="Random seed (reproducible).")] = 0,
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, help="Random seed, >= 0 (reproducible).")
+    ] = 0,
     plot: Annotated[
         Path | None, typer.Option("--plot", help="Write the figure (.png or .svg).")
     ] = None,

@@ -21,6 +21,7 @@ from ._common import (
     fail,
     interactive,
     open_archive,
+    os_error_text,
     warn,
 )
 from ._first_use import first_use
@@ -89,7 +90,8 @@ def batch(
             "--out",
             "-o",
             help="Summary table: a file ending .csv, .parquet, .json or .jsonl, or a prefix "
-            "for PREFIX.csv and PREFIX.parquet (default: <job file stem>-summary).",
+            "for PREFIX.csv and PREFIX.parquet (default: the job file's stem + '-summary', "
+            "e.g. grid-summary for grid.json).",
         ),
     ] = None,
     no_archive: Annotated[
@@ -159,8 +161,8 @@ def batch(
     columns = param_columns(spec)
     try:
         writer = TableWriter(table_paths(prefix), columns, param_types(spec, columns))
-    except OSError as err:
-        fail(str(err))
+    except OSError as err:  # before anything runs: the table's place cannot be written
+        fail(f"summary table: {os_error_text(err)}", code=1)
     cancel = threading.Event()
     previous = _sigint_sets(cancel)
     show = interactive(quiet)

@@ -13,7 +13,14 @@ from bowlrec.errors import MissingExtraError
 from bowlrec.sinks.registry import sink_named
 
 from ._app import app
-from ._common import ArchiveOption, QuietOption, open_archive, with_progress
+from ._common import (
+    ArchiveOption,
+    QuietOption,
+    fail,
+    open_archive,
+    output_dir,
+    with_progress,
+)
 from ._first_use import first_use
 
 #: the paper's Fig. 6 comparison; case 16 is written to MCAP and rerun
@@ -22,13 +29,23 @@ REPLAY_CASE = 16
 
 
 def _scenes(record_dt_s: float) -> list[Any]:
+    """The Table III scenes recording every ``record_dt_s`` (checked as a scene's
+    ``options.record_dt_s`` is: one ``error:`` line naming the option when it is not)."""
+    from pydantic import ValidationError
+
     from bowlrec.paper import TABLE_III, paper_scene
+    from bowlrec.spec import format_validation_error
 
     scenes = []
     for case in range(1, len(TABLE_III) + 1):
         scene = paper_scene(case)
-        options = scene.options.model_copy(update={"record": "rate", "record_dt_s": record_dt_s})
-        scenes.append(scene.model_copy(update={"options": options}))
+        data = scene.model_dump(mode="json")
+        data["options"].update(record="rate", record_dt_s=record_dt_s)
+        try:
+            scenes.append(type(scene).model_validate(data))
+        except ValidationError as err:
+            reason = format_validation_error(err).splitlines()[0].split(": ", 1)[-1]
+            fail(f"--record-dt-s {record_dt_s:g}: {reason}")
     return scenes
 
 
@@ -49,8 +66,9 @@ def demo(
     """
     from bowlrec.sinks import RunData
 
-    store = open_archive(archive)
     scenes = _scenes(record_dt_s)
+    output_dir(out, "--out")  # before the simulations: a place that cannot be written fails now
+    store = open_archive(archive)
     results = _simulate_all(store, scenes, quiet)
     added = sum(r.added for r in results)
     typer.echo(
@@ -68,7 +86,6 @@ def demo(
             f"  case {paper.case:2d}  {res.run_id[:10]}  slide {slide:>8} hook {hook:>8}"
             f"   (paper: slide {p_slide:>8} hook {100 * paper.hook_m:5.1f} cm)"
         )
-    out.mkdir(parents=True, exist_ok=True)
     fig6 = [
         RunData(scenes[c - 1], scenes[c - 1].resolve(), results[c - 1].trajectory)
         for c in FIG6_CASES

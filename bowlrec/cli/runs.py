@@ -412,7 +412,8 @@ def migrate(
     quiet: QuietOption = False,
 ) -> None:
     """Convert a format 1.0 archive (one file per run) to format 2.0 in place, or rewrite a 2.x
-    archive's segments of an older segment format (2.0-2.2) in the current one (2.3).
+    archive's segments of an older segment format in the current ones (2.3 for summary-only
+    segments, 3.0 for segments holding samples).
 
     Run IDs stay the same. The 1.0 files are kept in ARCHIVE/v1-archive/ (delete it once the
     migrated archive looks right); a migration that was interrupted resumes when run again.

@@ -22,6 +22,7 @@ from ._common import (
     fail,
     load_scene_or_exit,
     open_archive,
+    output_dir,
     parse_scene_or_exit,
     print_table,
     summary_json,
@@ -264,11 +265,16 @@ def _print_summary(name: str, traj: Any, run_id: str | None, added: bool, store:
 def paper(
     as_json: Annotated[bool, typer.Option("--json", help="Print JSON rows.")] = False,
     markdown: Annotated[bool, typer.Option("--markdown", help="Print a Markdown table.")] = False,
-    rtol: Annotated[float | None, typer.Option(help="Integrator tolerance override.")] = None,
+    rtol: Annotated[
+        float | None, typer.Option(help="Integrator tolerance override, in [1e-14, 1e-3].")
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Simulate the paper's 18 Table III cases and print them beside the paper's values."""
     from bowlrec.paper_table import HEADER, NOTE_TEXT, markdown_table, run_paper_cases, table_cells
+
+    if rtol is not None and not 1e-14 <= rtol <= 1e-3:  # as a scene's options.rtol
+        fail(f"--rtol {rtol:g}: must be in [1e-14, 1e-3]")
 
     first_use("closed_form", "integrator")  # summaries: uniform balls and the others
     rows = with_progress(
@@ -354,7 +360,7 @@ def examples(
     """Write the 18 Table III scenes as JSON scene files (case01.json ... case18.json)."""
     from bowlrec.paper import write_paper_examples
 
-    for p in write_paper_examples(out):
+    for p in write_paper_examples(output_dir(out, "OUT")):
         typer.echo(str(p))
 
 

@@ -21,7 +21,7 @@ import threading
 import time
 from pathlib import Path
 from types import FrameType
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import typer
 
@@ -37,6 +37,9 @@ from bowlrec.service.names import (
 from ._app import app
 from ._common import ARCHIVE_DEFAULT_HELP, EXIT_INTERRUPTED, ArchiveOption, fail, open_archive
 from ._first_use import first_use
+
+#: uvicorn's log levels, the values of --log-level
+LogLevel = Literal["critical", "error", "warning", "info", "debug", "trace"]
 
 #: the largest request-body limit serve accepts (MiB): 4 GiB
 MAX_BODY_MB = 4096.0
@@ -64,7 +67,8 @@ def serve(
         str,
         typer.Option(
             help="Environment variable holding the bearer token; when it is set (non-empty), "
-            "every request except /health and /docs needs 'Authorization: Bearer <token>'."
+            "every request except /health and /docs needs 'Authorization: Bearer TOKEN' "
+            "(TOKEN: the variable's value)."
         ),
     ] = DEFAULT_TOKEN_ENV,
     insecure: Annotated[
@@ -102,7 +106,7 @@ def serve(
         typer.Option(help="Largest request body, in MiB (larger ones get 413).", min=0.0),
     ] = DEFAULT_MAX_BODY_MB,
     log_level: Annotated[
-        str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
+        LogLevel, typer.Option(help="uvicorn log level.", case_sensitive=False)
     ] = "info",
 ) -> None:
     """Serve the archive over HTTP (API docs at http://HOST:PORT/docs).
@@ -164,7 +168,7 @@ def ui(
         typer.Option(help="Open the page in the browser (when the machine has a display)."),
     ] = True,
     log_level: Annotated[
-        str, typer.Option(help="uvicorn log level: critical|error|warning|info|debug.")
+        LogLevel, typer.Option(help="uvicorn log level.", case_sensitive=False)
     ] = "warning",
 ) -> None:
     """Browse an archive in the web browser: the runs, a run with the rerun viewer, Compare,

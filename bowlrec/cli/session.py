@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from ._app import app
-from ._common import ArchiveOption, JsonOption, QuietOption, fail, open_archive, with_progress
+from ._common import (
+    ArchiveOption,
+    JsonOption,
+    QuietOption,
+    fail,
+    open_archive,
+    output_dir,
+    with_progress,
+)
 from ._first_use import first_use
 
 if TYPE_CHECKING:
@@ -120,6 +128,8 @@ def session(
         for f, specs in sessions
         for spec in specs
     ]
+    for _, directory in tasks:  # before any shot: a place that cannot be written fails now
+        output_dir(directory, "--out")
     if (workers > 1 or scheduler is not None) and len(tasks) > 1:
         from bowlrec.batch.runner import worker_pool
 

@@ -9,7 +9,6 @@ than :data:`MAX_PLAIN_RUNS` runs are numbered (:mod:`bowlrec.figures.numbered`).
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
@@ -56,6 +55,8 @@ Array = NDArray[np.float64]
 
 #: the paper's exaggeration of the lane width in its trajectory figures (Fig. 1 caption)
 PAPER_EXAGGERATION = 4.5
+#: the largest lane-width exaggeration drawn: beyond it the lane outgrows any figure
+MAX_EXAGGERATION = 100.0
 #: number of rotation-axis arrows drawn along each path
 N_AXIS_ARROWS = 10
 #: rotation-axis arrows drawn in all in a numbered figure (at least one per run)
@@ -164,7 +165,8 @@ def runs_figure(
     fit beyond the lane end, about 40 runs that reach the pins). The head pin's label moves to
     the symbol key.
 
-    Raises ValueError if ``runs`` is empty or ``exaggerate`` is not positive and finite, and
+    Raises ValueError if ``runs`` is empty or ``exaggerate`` is not in (0,
+    :data:`MAX_EXAGGERATION`], and
     :class:`~bowlrec.errors.SamplesRequiredError` for a summary-only run.
     """
     if len(runs) == 0:
@@ -172,8 +174,11 @@ def runs_figure(
     for run in runs:
         run.require_samples("plot")
     ex = PAPER_EXAGGERATION if exaggerate is None else float(exaggerate)
-    if not (math.isfinite(ex) and ex > 0.0):
-        raise ValueError(f"exaggerate = {exaggerate!r} must be a positive finite number")
+    if not 0.0 < ex <= MAX_EXAGGERATION:  # NaN fails too
+        raise ValueError(
+            f"exaggerate = {exaggerate!r} must be in (0, {MAX_EXAGGERATION:g}] (the paper's: "
+            f"{PAPER_EXAGGERATION:g})"
+        )
 
     numbered = len(runs) > MAX_PLAIN_RUNS
     box = _lane_box(runs, ex, numbered=numbered)

@@ -264,12 +264,17 @@ def _submit(state: _State, response: Response, scene: dict[str, Any]) -> SubmitR
         )
     if result.trajectory is None:  # pragma: no cover - simulate always returns it
         raise HTTPException(500, "the archive returned no trajectory")
+    name = parsed.scene.name
     if not result.added:
         response.status_code = 200
+        # the name is not part of the content ID: the archived run keeps the name it was
+        # first stored under
+        stored = state.archive.rows([result.run_id]).get(result.run_id)
+        name = stored["name"] if stored is not None else name
     return SubmitResponse(
         run_id=result.run_id,
         added=result.added,
-        name=parsed.scene.name,
+        name=name,
         ball_ref=parsed.ball_ref,
         summary=result.trajectory.summary,
     )
@@ -646,6 +651,13 @@ def request_error_text(err: RequestValidationError, content_type: str | None = N
 _UNPARSED_BODY = "There was an error parsing the body"
 
 
+def echoes_request_path(err: StarletteHTTPException) -> bool:
+    """Whether :func:`http_error_text` answers ``err`` with a line that names only the
+    request's own URL path (an unknown path, a method the path does not take): a path the
+    client sent, which is not redacted as a server path would be."""
+    return (err.status_code, err.detail) in ((404, "Not Found"), (405, "Method Not Allowed"))
+
+
 def http_error_text(request: Request, err: StarletteHTTPException) -> str:
     """The one-line detail of an HTTP error: the service's own message, or for what the
     framework raises (an unknown path, a method the path does not take, a body that could
@@ -778,9 +790,9 @@ def create_app(
         if err.status_code in (204, 304):  # pragma: no cover - the service raises none
             return Response(status_code=err.status_code, headers=err.headers)
         detail = http_error_text(request, err)
-        return JSONResponse(
-            {"detail": state.redact(detail)}, status_code=err.status_code, headers=err.headers
-        )
+        if not echoes_request_path(err):  # those name only the client's own URL path
+            detail = state.redact(detail)
+        return JSONResponse({"detail": detail}, status_code=err.status_code, headers=err.headers)
 
     @app.exception_handler(RequestValidationError)
     async def _malformed(request: Request, err: RequestValidationError) -> JSONResponse:

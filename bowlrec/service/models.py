@@ -9,13 +9,12 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from bowlrec.archive.balls import parse_ball
+from bowlrec.archive.ball_import import checked_ball
 from bowlrec.core.trajectory import Summary
 from bowlrec.errors import SpecError
 from bowlrec.scene_input import ParsedScene, parse_scene
-from bowlrec.spec import format_validation_error
 
 if TYPE_CHECKING:
     from bowlrec.archive import BallLibrary
@@ -82,7 +81,10 @@ class SubmitResponse(BaseModel):
 
     run_id: str = Field(description="Content ID: the same scene always gives the same ID.")
     added: bool = Field(description="False when the run was already archived (nothing written).")
-    name: str = Field(description="The scene's name.")
+    name: str = Field(
+        description="The run's name: the scene's, or for a run already archived (added: "
+        "false) the name it was stored under (the name is not part of the content ID)."
+    )
     ball_ref: str | None = Field(description="Library ball used (name@version), if any.")
     summary: SummaryModel
 
@@ -157,6 +159,8 @@ class BallEntryModel(BaseModel):
 
 class BallAddRequest(BaseModel):
     """``POST /balls``: store ``spec`` under ``name`` (a changed spec becomes a new version)."""
+
+    model_config = ConfigDict(extra="forbid")
 
     name: str = Field(description="1-100 letters, digits, spaces and . _ + -")
     spec: dict[str, Any] = Field(
@@ -244,13 +248,7 @@ def parse_scene_spec(data: Any, balls: BallLibrary | None = None) -> ParsedScene
 def parse_ball_spec(data: Any) -> Any:
     """A physical ball or a bowler spec sheet (``weight_lb``); :class:`SpecError` if invalid."""
 
-    if not isinstance(data, dict):
-        raise SpecError(f"spec: expected a JSON object, got {type(data).__name__}")
-    try:
-        return parse_ball(data)
-    except ValidationError as err:
-        lines = format_validation_error(err).splitlines()
-        raise SpecError("\n".join(f"spec.{line}" for line in lines)) from None
+    return checked_ball("spec", data)
 
 
 # -- cookie sessions -----------------------------------------------------------------------------

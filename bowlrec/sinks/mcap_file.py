@@ -871,7 +871,10 @@ def _write_file(
     removed and ``path`` is left as it was)."""
     with atomic_path(path) as tmp:
         ctx = foxglove.Context()
-        with foxglove.open_mcap(tmp, context=ctx, writer_options=_writer_options()) as writer:
+        # the temporary exists already (atomic_path creates it): the SDK must overwrite it
+        with foxglove.open_mcap(
+            tmp, allow_overwrite=True, context=ctx, writer_options=_writer_options()
+        ) as writer:
             fill(writer, ctx)
     return Path(path)
 

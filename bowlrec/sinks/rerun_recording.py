@@ -293,6 +293,7 @@ def write_rrd(run: RunData, path: str | os.PathLike[str]) -> Path:
     run.require_samples("rerun recording")
     target = Path(path)
     with atomic_path(target) as tmp:
+        tmp.unlink()  # rerun's file sink creates its file and refuses one that exists
         with rr.RecordingStream(APPLICATION_ID, recording_id=recording_id(run)) as rec:
             rec.save(tmp, default_blueprint=default_blueprint(run))
             rec.send_recording_name(run.name)

@@ -123,6 +123,11 @@ class PinOptions(SpecModel):
     @field_validator("standing")
     @classmethod
     def _pins(cls, value: list[int]) -> list[int]:
+        if not value:
+            raise spec_error(
+                "no pin stands: name 1 to 10 pins (1-10), or set options.pins to false for no "
+                "pin action"
+            )
         bad = [p for p in value if not 1 <= p <= 10]
         if bad:
             raise spec_error(f"pin {bad[0]} is not a pin number: pins are 1-10")

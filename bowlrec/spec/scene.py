@@ -26,7 +26,11 @@ class Scene(SpecModel):
     on the paper's typical oil pattern.
     """
 
-    name: str = Field(default="scene", description="Short identifier, carried to the results.")
+    name: str = Field(
+        default="scene",
+        max_length=200,
+        description="Short identifier (at most 200 characters), carried to the results.",
+    )
     description: str = Field(default="", description="Free text.")
     ball: Ball = Field(default_factory=lambda: Ball())
     lane: Lane = Field(default_factory=lambda: Lane())
