@@ -67,3 +67,24 @@ def test_demo_record_dt_s_is_checked_as_the_scene_field(tmp_path: Path) -> None:
         ["demo", "-o", str(tmp_path / "d"), "--record-dt-s", "-1", "--archive", str(tmp_path)], 2
     )
     assert line == "error: --record-dt-s -1: Input should be greater than 0 (got -1.0)"
+
+
+@pytest.mark.parametrize(
+    ("args", "line"),
+    [
+        (
+            ["aim", str(ROOT / "examples/bowler/pocket-right.json"), "--pocket-board", "100"],
+            "error: --pocket-board: Input should be less than or equal to 39.5 (got 100.0)",
+        ),
+        (
+            ["aim", str(ROOT / "examples/bowler/pocket-right.json"), "--pocket-board", "20"],
+            "error: pocket board = 20.0 must lie in its window [17.0, 18.0]",
+        ),
+        (
+            ["layout", "convert", "vls", "5", "3", "2", "--pap-over", "100"],
+            "error: --pap-over: Input should be less than or equal to 13.5 (got 100.0)",
+        ),
+    ],
+)
+def test_an_option_out_of_range_is_named_as_the_option(args: list[str], line: str) -> None:
+    assert _error_line(args, 2) == line

@@ -132,9 +132,17 @@ class PAP(SpecModel):
     """The bowler's positive axis point, measured from the center of grip (in)."""
 
     over_in: PositiveFloat = Field(
-        description="Horizontal distance along the midline toward the hand side (in), > 0."
+        le=13.5,
+        description="Horizontal distance along the midline toward the hand side (in), in (0, "
+        "13.5]: an arc on the ball, at most half a standard ball's circumference.",
     )
-    up_in: FiniteFloat = Field(default=0.0, description="Vertical distance, + up (in).")
+    up_in: FiniteFloat = Field(
+        default=0.0,
+        ge=-6.75,
+        le=6.75,
+        description="Vertical distance, + up (in), in [-6.75, 6.75]: an arc, at most a quarter "
+        "of a standard ball's circumference.",
+    )
     handedness: Handedness = Field(default="right", description="'right' or 'left'.")
 
     def point(self, radius_in: float) -> NDArray:

@@ -106,7 +106,7 @@ def exit_for(err: BaseException) -> None:
     if isinstance(err, ValidationError):
         from bowlrec.spec import format_validation_error
 
-        fail(f"invalid spec\n{format_validation_error(err)}")
+        fail(format_validation_error(err))  # one line per problem, each naming its field
 
 
 def load_scene_or_exit(path: Path, archive: Path | None = None) -> Any:
@@ -182,6 +182,29 @@ def archive_errors() -> Iterator[None]:
     except Exception as err:
         _exit_for_builtin(err)
         raise
+
+
+def validated_options(model: Any, data: dict[str, Any], options: dict[str, str]) -> Any:
+    """``model.model_validate(data)`` for fields set from command-line options; an invalid one
+    is one ``error:`` line per problem naming the option that set it (``options``: field name
+    -> option, e.g. ``{"board": "--pocket-board"}``), code 2."""
+    from pydantic import ValidationError
+
+    from bowlrec.spec.errors import format_errors
+
+    try:
+        return model.model_validate(data)
+    except ValidationError as err:
+        lines = []
+        for e in err.errors(include_url=False):
+            loc = tuple(e["loc"])
+            message = format_errors([{**e, "loc": ("_",)}]).split(": ", 1)[1]
+            if not loc:  # the options together (a board outside its window)
+                lines.append(message)
+            else:
+                where = options.get(str(loc[0])) or format_errors([e]).split(": ", 1)[0]
+                lines.append(f"{where}: {message}")
+        fail("\n".join(lines))
 
 
 def output_dir(path: Path, option: str) -> Path:

@@ -15,6 +15,7 @@ from ._common import (
     fail,
     parse_scene_or_exit,
     print_table,
+    validated_options,
     with_status,
 )
 from ._first_use import first_use
@@ -78,7 +79,18 @@ def pocket_from_options(
         data["angle_deg"] = angle
     if angle_window is not None:
         data["angle_min_deg"], data["angle_max_deg"] = angle_window
-    return Pocket.model_validate(data)
+    return validated_options(
+        Pocket,
+        data,
+        {
+            "board": "--pocket-board",
+            "board_min": "--board-window",
+            "board_max": "--board-window",
+            "angle_deg": "--angle",
+            "angle_min_deg": "--angle-window",
+            "angle_max_deg": "--angle-window",
+        },
+    )
 
 
 def bowler_scene_or_exit(path: Path) -> Any:

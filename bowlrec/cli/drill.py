@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 
 from ._app import app
-from ._common import JsonOption, fail
+from ._common import JsonOption, fail, validated_options
 
 if TYPE_CHECKING:
     from bowlrec.bowling.drilling import DrilledBall, DrillingSpec
@@ -268,8 +268,12 @@ def layout_convert(
             fail(f"{name} = {value!r} must be one of {', '.join(_SYSTEMS)}")
     if not 0.0 < diameter_in <= 78.0:
         fail(f"--diameter = {diameter_in!r} must be in (0, 78] in")
+    pap: PAP = validated_options(
+        PAP,
+        {"over_in": pap_over, "up_in": pap_up, "handedness": "left" if left else "right"},
+        {"over_in": "--pap-over", "up_in": "--pap-up"},
+    )
     try:
-        pap: PAP = PAP(over_in=pap_over, up_in=pap_up, handedness="left" if left else "right")
         source = _layout(system, first, second, third, other_side)
         targets = [to] if to else list(_SYSTEMS)
         out = [convert_layout(source, t, pap, 0.5 * diameter_in) for t in targets]  # type: ignore[arg-type]
