@@ -88,3 +88,24 @@ def test_demo_record_dt_s_is_checked_as_the_scene_field(tmp_path: Path) -> None:
 )
 def test_an_option_out_of_range_is_named_as_the_option(args: list[str], line: str) -> None:
     assert _error_line(args, 2) == line
+
+
+@pytest.mark.parametrize(
+    ("stdout_tty", "stderr_tty", "quiet", "shown"),
+    [
+        (True, True, False, True),
+        (False, True, False, False),  # `bowlrec variance S | cat`: the output is piped
+        (True, False, False, False),
+        (True, True, True, False),
+    ],
+)
+def test_progress_shows_only_on_a_terminal_without_quiet(
+    monkeypatch: pytest.MonkeyPatch, stdout_tty: bool, stderr_tty: bool, quiet: bool, shown: bool
+) -> None:
+    import sys
+
+    from bowlrec.cli._common import interactive
+
+    monkeypatch.setattr(sys.stdout, "isatty", lambda: stdout_tty)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: stderr_tty)
+    assert interactive(quiet) is shown

@@ -52,8 +52,9 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Print JSON.")]
 
 
 def interactive(quiet: bool) -> bool:
-    """Show progress only on a terminal and without --quiet."""
-    return not quiet and sys.stderr.isatty()
+    """Show progress only without --quiet and when both stdout and stderr are a terminal (a
+    command whose output is piped or redirected shows none, whatever stream it would use)."""
+    return not quiet and sys.stderr.isatty() and sys.stdout.isatty()
 
 
 def fail(message: str, code: int = 2) -> NoReturn:
