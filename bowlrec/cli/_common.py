@@ -236,9 +236,7 @@ def _exit_for_builtin(err: Exception) -> None:
     elif isinstance(err, sqlite3.Error):  # e.g. "database or disk is full"
         fail(f"the archive's index: {err}; nothing already archived was lost", code=1)
     elif isinstance(err, OSError):  # e.g. a full disk while removing, repairing or compacting
-        reason = os.strerror(err.errno) if err.errno else " ".join(str(err).split())
-        where = f" ({err.filename})" if getattr(err, "filename", None) else ""
-        fail(f"{reason}{where}; nothing already archived was lost", code=1)
+        fail(f"{os_error_text(err)}; nothing already archived was lost", code=1)
 
 
 def with_status(message: str, quiet: bool, fn: Callable[..., Any], *args: Any) -> Any:
