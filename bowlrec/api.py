@@ -47,15 +47,16 @@ def with_pins(plan: Plan, trajectory: Trajectory) -> Trajectory:
 
 def simulate_into(
     archive: Archive,
-    scene: Scene,
+    scene: SceneSource,
     *,
     ball_ref: str | None = None,
     method: str = "auto",
     group: GroupCommitter | None = None,
 ) -> AddResult:
-    """Simulate ``scene`` and store it in ``archive``, unless its run ID is archived already
-    (then the stored trajectory is returned and nothing is simulated or written). A stored copy
-    found damaged is set aside and the scene simulated again. ``ball_ref`` ("name@version")
+    """Simulate ``scene`` (as :func:`as_scene` takes it) and store it in ``archive``, unless its
+    run ID is archived already (then the stored trajectory is returned and nothing is
+    simulated or written). A stored copy found damaged is set aside and the scene simulated
+    again. ``ball_ref`` ("name@version")
     names the library ball the scene used (None: looked up by spec); ``method`` as in
     :func:`bowlrec.core.solver.solve`; ``group``: a
     :class:`~bowlrec.archive.group_commit.GroupCommitter` that seals summary-only runs together
@@ -67,6 +68,7 @@ def simulate_into(
     from .errors import RunDamagedError
     from .sinks.common import RunData
 
+    scene = as_scene(scene)
     plan = scene.resolve()
     rid = run_id(plan)
     found = archive.locate(rid)

@@ -167,6 +167,7 @@ def test_pins_round_trip_every_value_and_array(tmp_path: Path, plain_run: RunDat
     for i, pins in enumerate(outcomes):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
+        assert stored.trajectory.pins == pins  # dataclass equality, the arrays by value
         assert stored.attrs["format_version"] == "3.0"  # the runs have samples
         engine = stored.attrs.get("pin_engine_version")
         assert engine == (None if pins.action is None else "mujoco 3.17.0")
@@ -203,6 +204,7 @@ def test_runs_with_and_without_pins_share_a_segment_and_compaction_carries_them(
     for i, pins in enumerate([*outcomes, None]):
         stored = archive.load(_rid(i))
         _assert_same_pins(stored.trajectory.pins, pins)
+        assert stored.trajectory.pins == pins  # dataclass equality, the arrays by value
         assert stored.attrs["format_version"] == "3.0"
     assert archive.repair()["damaged_runs"] == []
 

@@ -90,7 +90,15 @@ class ArchiveDir:
         if not self.marker.exists():
             if not create:
                 raise ArchiveError(f"{self.root} is not a bowlrec archive (no archive.json)")
-            self._create()
+            if self.root.exists() and not self.root.is_dir():
+                raise ArchiveError(f"{self.root} is a file, not an archive directory")
+            try:
+                self._create()
+            except OSError as err:  # a read-only parent, a place like /proc, a full disk
+                reason = err.strerror or str(err)
+                raise ArchiveWriteError(
+                    f"{self.root}: cannot create an archive here ({reason})"
+                ) from None
         version = str(read_marker(self.marker).get("format_version", ""))
         major, ours = version.split(".")[0], ARCHIVE_FORMAT_VERSION.split(".")[0]
         if major == "1":

@@ -339,11 +339,16 @@ class Filter:
 
     @classmethod
     def parse(cls, text: str) -> Filter:
-        """Parse ``column<op>value`` (ops: <= >= != = < >); whitespace around parts is ignored."""
+        """Parse ``column<op>value`` (ops: <= >= != = < >); whitespace around parts is ignored
+        and a value in matching quotes (``physics_version='frohlich2004-ts54-6'``) is taken
+        without them."""
         for op in COMPARISONS:  # two-character operators are tried first
             if op in text:
                 column, value = text.split(op, 1)
-                return cls(column.strip(), op, value.strip())
+                value = value.strip()
+                if len(value) >= 2 and value[0] == value[-1] and value[0] in "'\"":
+                    value = value[1:-1]  # a quoted value, as SQL and shells write one
+                return cls(column.strip(), op, value)
         raise IndexQueryError(
             f"cannot parse filter {text!r}: expected column<op>value with op in "
             f"{' '.join(COMPARISONS)}, e.g. hook_m>=0.1"

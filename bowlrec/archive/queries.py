@@ -53,6 +53,8 @@ def run_filters(
             + ", ".join(OUTCOMES.values())
             + " ('pins': the ball reached the pins)"
         )
+    if isinstance(where, str | Filter):  # one condition rather than a list of them
+        where = [where]
     filters = [w if isinstance(w, Filter) else Filter.parse(w) for w in where]
     clauses = [] if ball is None else [_ball_clause(d, ball)]
     if strikes:

@@ -93,13 +93,14 @@ def run_data(d: ArchiveDir, run_id: str) -> RunData:
 
 
 def export(d: ArchiveDir, run_id: str, dest: str | os.PathLike[str]) -> Path:
-    """Write one run as a self-contained run file (format ``bowlrec-run`` 1.0, 1.1 with pins,
-    with the resolved parameters and the run's provenance) at ``dest`` (a file or an existing
-    directory)."""
-    from bowlrec.sinks.registry import sink_named
+    """Write one run to ``dest``: an existing directory or a ``.h5`` file gets a self-contained
+    run file (format ``bowlrec-run`` 1.0, 1.1 with pins, with the resolved parameters and the
+    run's provenance); another suffix the format it names, as ``bowlrec runs export`` does
+    (``.csv``, ``.mcap``, ``.rrd``, ...; UnknownFormatError for a suffix that names none)."""
+    from bowlrec.sinks.registry import sink_for
 
     run = run_data(d, run_id)
     out = Path(dest)
     if out.is_dir():
         out = out / f"{run.run_id}.h5"
-    return sink_named("hdf5").write(run, out)
+    return sink_for(out).write(run, out)

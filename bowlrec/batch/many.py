@@ -7,13 +7,14 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from bowlrec.archive import Archive
 from bowlrec.batch.job_spec import JobSpec, load_job
 from bowlrec.batch.runner import run_job
 from bowlrec.batch.table import to_arrow, to_numpy
-from bowlrec.errors import MissingExtraError
+from bowlrec.errors import JobError, MissingExtraError
+from bowlrec.spec import format_validation_error
 
 if TYPE_CHECKING:
     from .runner import ProgressCallback
@@ -21,17 +22,33 @@ if TYPE_CHECKING:
 __all__ = ["simulate_many"]
 
 
-def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
+def _validated(data: dict[str, Any]) -> JobSpec:
+    """``data`` as a job; JobError with one field-named line per problem."""
+    try:
+        return JobSpec.model_validate(data)
+    except ValidationError as err:
+        raise JobError(format_validation_error(err).replace("scene", "job", 1)) from None
 
+
+def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
+    """The job of :func:`simulate_many`'s first argument and the directory its paths are
+    relative to; JobError naming what is wrong."""
     if isinstance(scenes_or_job, JobSpec):
         return scenes_or_job, Path(".")
     if isinstance(scenes_or_job, str | Path):
         path = Path(scenes_or_job)
         return load_job(path), path.parent
     if isinstance(scenes_or_job, dict):
-        return JobSpec.model_validate(scenes_or_job), Path(".")
+        return _validated(scenes_or_job), Path(".")
+    if not isinstance(scenes_or_job, Sequence) or isinstance(scenes_or_job, bytes):
+        raise JobError(
+            "simulate_many takes a job (JobSpec, mapping or file) or a sequence of scenes, not "
+            f"{type(scenes_or_job).__name__}"
+        )
+    if not scenes_or_job:
+        raise JobError("simulate_many: no scenes (the sequence is empty)")
     scenes: list[Any] = []
-    for s in scenes_or_job:
+    for i, s in enumerate(scenes_or_job):
         if isinstance(s, BaseModel):  # a BowlerScene dumps its "format": "bowler"
             scenes.append(s.model_dump(mode="json"))
         elif isinstance(s, dict | str):
@@ -39,10 +56,11 @@ def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
         elif isinstance(s, Path):
             scenes.append(str(s))
         else:
-            raise TypeError(
-                f"a scene must be a Scene, BowlerScene, mapping or path, not {type(s).__name__}"
+            raise JobError(
+                f"scenes[{i}]: a scene must be a Scene, BowlerScene, mapping or path, not "
+                f"{type(s).__name__}"
             )
-    job = JobSpec.model_validate(
+    job = _validated(
         {
             "name": "simulate_many",
             "sweep": {"kind": "scenes", "scenes": scenes},
@@ -80,7 +98,9 @@ def simulate_many(
     """
 
     if output not in ("arrow", "numpy"):
-        raise ValueError(f"output = {output!r} must be 'arrow' or 'numpy'")
+        raise JobError(f"output = {output!r} must be 'arrow' or 'numpy'")
+    if workers is not None and (type(workers) is not int or workers < 0):
+        raise JobError(f"workers = {workers!r} must be an integer >= 0 (0: this process)")
     if output == "arrow":
         try:
             import pyarrow  # noqa: F401

@@ -473,10 +473,7 @@ def run_job(
         replay_dir=replay_dir,
     )
     if archive is not None and recover:
-        try:
-            archive.recover()
-        except ArchiveWriteError as err:
-            raise RuntimeError(str(err)) from None
+        archive.recover()  # ArchiveWriteError when the archive cannot be written
     result = BatchResult(param_columns(job))
     cancel = cancel or threading.Event()
     with _maybe_executor(executor, workers, scheduler) as pool:

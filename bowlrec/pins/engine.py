@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -150,6 +150,19 @@ class PinAction:
     wall_time_s: float
     engine: str
     extras: dict[str, float] = field(default_factory=dict)
+
+    def __eq__(self, other: object) -> bool:
+        """Field by field, the recorded motion's arrays by their values (NaN equal to NaN)."""
+        if not isinstance(other, PinAction):
+            return NotImplemented
+        for f in fields(self):
+            a, b = getattr(self, f.name), getattr(other, f.name)
+            if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+                if not np.array_equal(a, b, equal_nan=True):
+                    return False
+            elif a != b:
+                return False
+        return True
 
     @property
     def knocked(self) -> tuple[int, ...]:
