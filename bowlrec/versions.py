@@ -11,7 +11,7 @@ __all__ = ["BOWLER_LAYER_VERSION", "PHYSICS_VERSION", "PIN_MODEL_VERSION", "__ve
 __version__ = "0.1.0"
 #: version of the physics model and its numerics; part of every run's provenance and run ID. It
 #: changes whenever results change beyond rounding (CHANGELOG.md says what each version changed).
-PHYSICS_VERSION = "frohlich2004-ts54-6"
+PHYSICS_VERSION = "frohlich2004-ts54-7"
 #: version of the bowlers' layer (spec sheet, layout and PAP, delivery -> physical scene); part
 #: of every run's provenance. Version 2 places the PAP at +omega_hat for a right-hander, grip
 #: facing the bowler at release; in runs stored with 1 or without the field the PAP is at the

@@ -96,6 +96,21 @@ def test_paper_threshold_rule_rolls_earlier_by_the_closed_form_amount() -> None:
     assert paper.slide_m == pytest.approx(x(t_thr), rel=1e-9)
 
 
+def test_paper_threshold_rule_rolls_at_release_when_the_slip_starts_under_it() -> None:
+    """The release slip is 8 - 30 R m/s (about 4.75). Just under it the threshold shortens the
+    slide to the closed form's few centimetres; at or above it the ball rolls from release: a
+    slide -> roll event at t = 0 and no slide, continuous with the threshold below."""
+    s0 = 8.0 - 30.0 * R
+    rate = 0.12 * G * (1.0 + R**2 / 0.067**2)
+    x = lambda t: 8.0 * t - 0.5 * 0.12 * G * t * t  # noqa: E731
+    below = simulate(scene(slide_to_roll="threshold", slip_threshold_mps=s0 - 0.05))
+    assert below.summary.slide_m == pytest.approx(x(0.05 / rate), rel=1e-9)
+    for threshold in (s0 + 1e-3, 100.0):
+        run = simulate(scene(slide_to_roll="threshold", slip_threshold_mps=threshold))
+        assert run.summary.slide_m == 0.0
+        assert (run.events[0].kind, run.events[0].t_s) == ("slide_to_roll", 0.0)
+
+
 def test_rolling_ball_entering_oil_starts_sliding() -> None:
     # a non-uniform ball rolling on a dry zone needs friction (tau_dev); on near-frictionless oil
     # it cannot keep rolling

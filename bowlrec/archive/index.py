@@ -340,7 +340,7 @@ class Filter:
     @classmethod
     def parse(cls, text: str) -> Filter:
         """Parse ``column<op>value`` (ops: <= >= != = < >); whitespace around parts is ignored
-        and a value in matching quotes (``physics_version='frohlich2004-ts54-6'``) is taken
+        and a value in matching quotes (``physics_version='frohlich2004-ts54-7'``) is taken
         without them."""
         for op in COMPARISONS:  # two-character operators are tried first
             if op in text:

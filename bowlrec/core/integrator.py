@@ -25,7 +25,8 @@ Events (a function g fires where it goes from >= 0 to < 0 between two dense samp
   residual slip (~ the tolerance) is removed by a tiny impulse at the contact point (physically
   consistent: it changes v and w as a friction impulse does);
 * with the paper's rule (``slide_mode`` 1) slide -> roll fires where s . u_ref falls through the
-  threshold; a slip that restarted from zero and never exceeded it rolls again at zero;
+  threshold, or at release when the slip starts under it; a slip that restarted from zero and
+  never exceeded it rolls again at zero;
 * roll -> slide: the friction reserve mu n - |f| of the rolling ball turns negative (checked at
   every stage and step end, then located on the dense output);
 * loss of contact: the normal force turns negative (outcome "airborne").
@@ -408,6 +409,16 @@ def simulate_kernel(  # type: ignore[no-untyped-def]
 
     law = release_law(y, par, mu, margin_tol)
     phase, _, uxr, uyr = law
+    if slide_mode == SLIDE_TO_ROLL_THRESHOLD and phase == PHASE_SLIDE:
+        sx, sy = slip(y, par)
+        if sx * sx + sy * sy < slip_threshold * slip_threshold:
+            # the paper's rule at release: a slip already under the threshold rolls at once
+            # (the slide -> roll event fires only where the slip falls through it)
+            remove_slip(y, par)
+            law = release_law(y, par, mu, margin_tol)
+            phase, _, uxr, uyr = law
+            if phase == PHASE_ROLL:
+                ev, nev = push_event(ev, nev, t, EVENT_SLIDE_TO_ROLL, y, mu, phase)
 
     r0 = rhs(y, par, phase, mu, uxr, uyr, orient, K[0])
     nfev = 1
