@@ -61,3 +61,14 @@ def test_a_boolean_is_not_a_number_in_scenes_and_jobs(tmp_path: Path) -> None:
     path.write_text(json.dumps(job))
     with pytest.raises(JobError, match=re.escape("sweep.random.n: Input should be a number")):
         load_job(path)
+
+
+def test_a_radius_of_gyration_under_a_thousandth_of_the_radius_is_refused() -> None:
+    """rg 1e-6 m in a 0.1085 m ball stalled the integrator (an outcome other than the closed
+    form's); radius / 1000 is the smallest radius of gyration accepted."""
+    from bowlrec.errors import SceneInputError
+    from bowlrec.scene_input import parse_scene_input
+
+    with pytest.raises(SceneInputError, match=re.escape("rg_m[0] = 1e-06 must be at least")):
+        parse_scene_input({"ball": {"rg_m": [1e-6, 1e-6, 1e-6]}})
+    assert parse_scene_input({"ball": {"rg_m": [2e-4, 2e-4, 2e-4]}}).scene.ball.rg_m[0] == 2e-4

@@ -220,8 +220,12 @@ def _check_values(job: JobSpec, base: _Base, lookup: BallLookup) -> None:
             for path, axis in block.axes.items():
                 values = [axis.low, axis.high] if isinstance(axis, Range) else axis_values(axis)
                 checks += [(f"sweep[{b}].axes[{path!r}]", path, value) for value in values]
+        scratches: dict[str, dict[str, Any]] = {}
         for where, path, value in checks:
-            scratch = copy.deepcopy(base.data)  # the value overwrites the one path it sets
+            # one copy of the base per path: each value overwrites the one path it sets
+            if path not in scratches:
+                scratches[path] = copy.deepcopy(base.data)
+            scratch = scratches[path]
             try:
                 apply_override(scratch, path, value)
                 data, _ = _library_ball(scratch, lookup)

@@ -93,8 +93,8 @@ def exit_code(err: BowlrecError) -> int:
 def exit_for(err: BaseException) -> None:
     """Exit with one ``error:`` line for a :class:`~bowlrec.errors.BowlrecError` (its
     category's code), an invalid spec Pydantic rejected (code 2), or a file the system
-    refused (an ``OSError``: an output path in a missing or read-only directory, a full disk;
-    code 1, the line names the file); return for anything else. Pydantic is imported only
+    refused (an ``OSError``: an output path where no file can be created, a full disk; code
+    1, the line names the file); return for anything else. Pydantic is imported only
     when the error is not a BowlrecError."""
     if isinstance(err, BowlrecError):
         fail(str(err), code=exit_code(err))

@@ -30,7 +30,7 @@ from ._base import (
     norm,
     spec_error,
 )
-from .limits import MAX_MASS_KG, MAX_RADIUS_M
+from .limits import MAX_MASS_KG, MAX_RADIUS_M, MIN_RG_FRACTION
 
 __all__ = ["Ball", "PERPENDICULAR_TOLERANCE", "ZERO_LENGTH"]
 
@@ -79,8 +79,8 @@ class Ball(SpecModel):
         default=(0.067, 0.067, 0.067),
         validate_default=True,
         description=(
-            "Radii of gyration about principal axes 1, 2, 3 (m); each < radius_m and the moments "
-            "m*rg_i**2 must satisfy the triangle inequalities."
+            "Radii of gyration about principal axes 1, 2, 3 (m); each in [radius_m / 1000, "
+            "radius_m) and the moments m*rg_i**2 must satisfy the triangle inequalities."
         ),
     )
     axis_1: Vec3 = Field(
@@ -127,6 +127,13 @@ class Ball(SpecModel):
                     raise spec_error(
                         f"rg_m[{i}] = {fmt(k)} must be < radius_m = {fmt(radius)} (a radius of "
                         "gyration cannot exceed the radius for a body inside the sphere)"
+                    )
+                if k < radius * MIN_RG_FRACTION:
+                    raise spec_error(
+                        f"rg_m[{i}] = {fmt(k)} must be at least radius_m / "
+                        f"{1 / MIN_RG_FRACTION:g} = {radius * MIN_RG_FRACTION:.4g} m (a ball "
+                        "nearly all of whose mass sits at its centre makes the slip too stiff "
+                        "to integrate; a uniform sphere's is 0.63 radius_m)"
                     )
         mass = info.data.get("mass_kg", 1.0)
         moments = [mass * k * k for k in rg]

@@ -51,6 +51,7 @@ __all__ = [
     "MAX_TIME_S",
     "MAX_ZONES",
     "MAX_SLOPE",
+    "MIN_RG_FRACTION",
     "MAX_PROFILE_POINTS",
     "MAX_ROLLING_RESISTANCE",
     "MAX_DRAG_COEFFICIENT",
@@ -61,6 +62,10 @@ MAX_SPEED_MPS = 100.0
 MAX_OMEGA_RADPS = 1000.0
 MAX_MASS_KG = 100.0
 MAX_RADIUS_M = 1.0
+#: the smallest radius of gyration, as a fraction of the radius: below it (a ball nearly all
+#: of whose mass sits at its centre) the slip's relaxation, ~ mu g (1 + R^2 / k^2), is too stiff
+#: for the integrator (rg = 1e-6 m in a 0.1085 m ball stalled; 1e-5 m still integrates)
+MIN_RG_FRACTION = 1e-3
 MAX_MU = 10.0
 MAX_LANE_M = 10_000.0
 MAX_G_MPS2 = 100.0
