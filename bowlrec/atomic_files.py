@@ -52,15 +52,16 @@ def atomic_path(
     final.parent.mkdir(parents=True, exist_ok=True)
     tmp = final.with_name(f".{final.name}.{uuid.uuid4().hex[:8]}{PART_SUFFIX}")
     try:  # created here, so that a place that cannot be written fails naming ``final``
-        lock_fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
     except OSError as err:
         err.filename = str(final)
         raise
+    lock_fd = -1  # the descriptor whose flock is held until the rename
     if hold_lock:
-        fcntl.flock(lock_fd, fcntl.LOCK_EX)
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        lock_fd = fd
     else:
-        os.close(lock_fd)
-        lock_fd = -1
+        os.close(fd)
     try:
         yield tmp
         if durable:

@@ -28,10 +28,11 @@ def _kind(value: Any) -> str:
     return names.get(type(value), type(value).__name__)
 
 
-def checked_ball(where: str, spec: Any) -> AnyBall:
-    """The ball spec at ``where`` (``balls[i].spec``, a request's ``spec``): a physical ball or
-    a bowler spec sheet (``weight_lb``); :class:`~bowlrec.errors.SpecError` naming ``where``
-    (each line of a spec's errors prefixed with it) when it is not a valid one."""
+def checked_ball(where: str, spec: Any, joiner: str = ".") -> AnyBall:
+    """The ball spec at ``where`` (``balls[i].spec``, a request's ``spec``, a file): a physical
+    ball or a bowler spec sheet (``weight_lb``); :class:`~bowlrec.errors.SpecError` naming
+    ``where`` when it is not a valid one, each line of a spec's errors as ``where`` +
+    ``joiner`` + the field (``balls[0].spec.mass_kg: ...``; a file: ``joiner`` ": ")."""
     from pydantic import ValidationError
 
     from bowlrec.spec import format_validation_error
@@ -42,7 +43,7 @@ def checked_ball(where: str, spec: Any) -> AnyBall:
         return parse_ball(spec)
     except ValidationError as err:
         lines = format_validation_error(err).splitlines()
-        raise SpecError("\n".join(f"{where}.{line}" for line in lines)) from None
+        raise SpecError("\n".join(f"{where}{joiner}{line}" for line in lines)) from None
     except SpecError as err:
         raise SpecError(f"{where}: {err}") from None
 

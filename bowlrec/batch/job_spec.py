@@ -47,6 +47,7 @@ from bowlrec.spec.loading import read_mapping
 
 __all__ = [
     "JOB_FORMAT",
+    "job_from_mapping",
     "MAX_HYPERCUBE_VALUES",
     "MAX_JOB_RUNS",
     "AnySweep",
@@ -443,10 +444,18 @@ def load_job(path: str | Path) -> JobSpec:
     if other is not None:
         raise JobError(f"{p}: {other}")
     try:
+        return job_from_mapping(data)
+    except JobError as err:
+        raise JobError(prefix_lines(p, str(err))) from err
+
+
+def job_from_mapping(data: Any) -> JobSpec:
+    """``data`` (a job file's mapping) as a job; JobError with one field-named line per
+    problem (the job as a whole named ``job``)."""
+    try:
         return JobSpec.model_validate(data)
     except ValidationError as err:
-        text = format_validation_error(err).replace("scene", "job", 1)
-        raise JobError(prefix_lines(p, text)) from err
+        raise JobError(format_validation_error(err).replace("scene", "job", 1)) from None
 
 
 def job_schema_text() -> str:

@@ -7,27 +7,18 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel
 
 from bowlrec.archive import Archive
-from bowlrec.batch.job_spec import JobSpec, load_job
+from bowlrec.batch.job_spec import JobSpec, job_from_mapping, load_job
 from bowlrec.batch.runner import run_job
 from bowlrec.batch.table import to_arrow, to_numpy
 from bowlrec.errors import JobError, MissingExtraError
-from bowlrec.spec import format_validation_error
 
 if TYPE_CHECKING:
     from .runner import ProgressCallback
 
 __all__ = ["simulate_many"]
-
-
-def _validated(data: dict[str, Any]) -> JobSpec:
-    """``data`` as a job; JobError with one field-named line per problem."""
-    try:
-        return JobSpec.model_validate(data)
-    except ValidationError as err:
-        raise JobError(format_validation_error(err).replace("scene", "job", 1)) from None
 
 
 def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
@@ -39,7 +30,7 @@ def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
         path = Path(scenes_or_job)
         return load_job(path), path.parent
     if isinstance(scenes_or_job, dict):
-        return _validated(scenes_or_job), Path(".")
+        return job_from_mapping(scenes_or_job), Path(".")
     if not isinstance(scenes_or_job, Sequence) or isinstance(scenes_or_job, bytes):
         raise JobError(
             "simulate_many takes a job (JobSpec, mapping or file) or a sequence of scenes, not "
@@ -60,7 +51,7 @@ def _as_job(scenes_or_job: Any) -> tuple[JobSpec, Path]:
                 f"scenes[{i}]: a scene must be a Scene, BowlerScene, mapping or path, not "
                 f"{type(s).__name__}"
             )
-    job = _validated(
+    job = job_from_mapping(
         {
             "name": "simulate_many",
             "sweep": {"kind": "scenes", "scenes": scenes},

@@ -9,8 +9,7 @@ from typing import Annotated, Any
 import typer
 
 from bowlrec.archive import parse_ball_ref
-from bowlrec.archive.balls import parse_ball
-from bowlrec.errors import SpecError, SpecFileError
+from bowlrec.errors import SpecFileError
 
 from ._app import app
 from ._common import ArchiveOption, JsonOption, archive_errors, fail, print_table
@@ -23,9 +22,7 @@ app.add_typer(balls_app, name="balls")
 def _load_ball(path: Path) -> Any:
     """A ball from a file: a physical ball spec, a spec sheet in bowlers' units (it has
     ``weight_lb``), or the ``ball`` of a scene file (physical or bowler-language)."""
-    from pydantic import ValidationError
-
-    from bowlrec.spec import format_validation_error
+    from bowlrec.archive.ball_import import checked_ball
     from bowlrec.spec.loading import read_mapping
 
     if not path.exists():
@@ -36,14 +33,9 @@ def _load_ball(path: Path) -> Any:
         raise SpecFileError(f"{path}: {err}") from None
     except OSError as err:
         fail(f"{path}: {err}")
-    field = ""
-    if isinstance(data, dict) and "ball" in data:
-        data, field = data["ball"], "ball."
-    try:
-        return parse_ball(data or {})
-    except ValidationError as err:  # one line per problem, naming the file and the field
-        lines = format_validation_error(err).splitlines()
-        raise SpecError("\n".join(f"{path}: {field}{line}" for line in lines)) from None
+    if isinstance(data, dict) and "ball" in data:  # one line per problem: file and field
+        return checked_ball(f"{path}: ball", data["ball"] or {})
+    return checked_ball(str(path), data or {}, joiner=": ")
 
 
 @balls_app.command("add")

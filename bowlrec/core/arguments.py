@@ -144,10 +144,10 @@ def restart_layer(plan: Plan) -> float:
     pocket and slide errors unchanged (benchmarks/results/speed_limit.md); over the
     work-precision set the worst errors stay those of the exit at s_layer from rtol 1e-6 to
     1e-4 (pocket at rtol 3e-5: 5.7e-4 against 5.6e-4 deg). Twice this exit, the worst pocket
-    error there grows to 6.4e-4 deg. Widening the entry
-    where a slide ends as well would move the slide end where rolling is marginal: random063 of
-    that set rolls 0.3 m before the gutter with a 7.7e-4 m/s layer at rtol 2e-5, and does not
-    roll at all in the exact dynamics."""
+    error there grows to 6.4e-4 deg. Widening the entry where a slide ends as well would move
+    the slide end where rolling is marginal: random063 of that set rolls 0.3 m before the
+    gutter with a 7.7e-4 m/s layer at rtol 2e-5, and does not roll at all in the exact
+    dynamics."""
     layer = slip_layer(plan)
     if plan.slip_layer_mps is not None:
         return layer
